@@ -1,0 +1,62 @@
+# Build-time code generation for LCM types.
+#
+# Debian's LCM 1.3.1 ships no CMake helper (no lcm_wrap_types), so this file
+# runs lcm-gen itself: C++ headers into the build tree (never the source tree)
+# behind an INTERFACE target, and a Java jar of the same types for lcm-spy.
+#
+#   vslam_lcm_types(TARGET name JAR_TARGET name FILES a.lcm b.lcm ...)
+
+find_program(LCM_GEN_EXECUTABLE lcm-gen REQUIRED)
+find_package(Java 11 COMPONENTS Development REQUIRED)
+find_file(LCM_JAR lcm.jar PATHS /usr/share/java REQUIRED)
+
+function(vslam_lcm_types)
+  cmake_parse_arguments(ARG "" "TARGET;JAR_TARGET" "FILES" ${ARGN})
+  set(cpp_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/cpp)
+  set(java_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/java)
+  set(class_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/classes)
+
+  set(headers)
+  set(java_sources)
+  foreach(lcm_file ${ARG_FILES})
+    get_filename_component(abs ${lcm_file} ABSOLUTE)
+    # Files are named <package>_<type>.lcm (libbot2 convention).
+    get_filename_component(stem ${abs} NAME_WE)
+    string(REGEX MATCH "^([a-z0-9]+)_(.+)$" _ ${stem})
+    if(NOT CMAKE_MATCH_1 OR NOT CMAKE_MATCH_2)
+      message(FATAL_ERROR "LCM type file ${lcm_file} is not named <package>_<type>.lcm")
+    endif()
+    set(pkg ${CMAKE_MATCH_1})
+    set(type ${CMAKE_MATCH_2})
+    set(hpp ${cpp_root}/${pkg}/${type}.hpp)
+    set(java ${java_root}/${pkg}/${type}.java)
+    add_custom_command(
+      OUTPUT ${hpp} ${java}
+      COMMAND ${LCM_GEN_EXECUTABLE} --cpp --cpp-std c++11 --cpp-hpath ${cpp_root} ${abs}
+      COMMAND ${LCM_GEN_EXECUTABLE} --java --jpath ${java_root} ${abs}
+      DEPENDS ${abs}
+      COMMENT "lcm-gen ${pkg}.${type}"
+      VERBATIM)
+    list(APPEND headers ${hpp})
+    list(APPEND java_sources ${java})
+  endforeach()
+
+  add_custom_target(${ARG_TARGET}_generate DEPENDS ${headers})
+  add_library(${ARG_TARGET} INTERFACE)
+  add_dependencies(${ARG_TARGET} ${ARG_TARGET}_generate)
+  target_include_directories(${ARG_TARGET} SYSTEM INTERFACE ${cpp_root})
+
+  # Java: compile every generated class into one jar for lcm-spy.
+  set(jar ${CMAKE_BINARY_DIR}/share/java/${ARG_JAR_TARGET}.jar)
+  add_custom_command(
+    OUTPUT ${jar}
+    COMMAND ${CMAKE_COMMAND} -E rm -rf ${class_root}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${class_root} ${CMAKE_BINARY_DIR}/share/java
+    COMMAND ${Java_JAVAC_EXECUTABLE} -nowarn -source 11 -target 11 -cp ${LCM_JAR} -d ${class_root} ${java_sources}
+    COMMAND ${Java_JAR_EXECUTABLE} cf ${jar} -C ${class_root} .
+    DEPENDS ${java_sources}
+    COMMENT "javac + jar ${ARG_JAR_TARGET}.jar"
+    VERBATIM)
+  add_custom_target(${ARG_JAR_TARGET} ALL DEPENDS ${jar})
+  set(${ARG_JAR_TARGET}_JAR ${jar} PARENT_SCOPE)
+endfunction()
