@@ -1,0 +1,78 @@
+#include "bus/bus.hpp"
+
+#include <exception>
+
+#include "util/log.hpp"
+
+namespace vslam::bus {
+
+Bus::Bus(lcm::LCM& lcm, const Clock& clock, std::string owner)
+    : lcm_(lcm), clock_(clock), owner_(std::move(owner)) {}
+
+Bus::~Bus() {
+  for (auto& s : subscriptions_) {
+    if (s->lcm_subscription) lcm_.unsubscribe(s->lcm_subscription);
+  }
+}
+
+void Bus::add(std::unique_ptr<Subscription> sub, int queue_capacity) {
+  sub->bus = this;
+  sub->lcm_subscription = lcm_.subscribe(sub->channel, &Subscription::onRaw, sub.get());
+  if (sub->lcm_subscription && queue_capacity > 0) {
+    sub->lcm_subscription->setQueueCapacity(queue_capacity);
+  }
+  subscriptions_.push_back(std::move(sub));
+}
+
+void Bus::Subscription::onRaw(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  ++received;
+  ++bus->counters_.received;
+  Utime msg_utime = 0;
+  try {
+    if (!decodeAndHandle(rbuf, &msg_utime)) return;
+  } catch (const std::exception& e) {
+    ++bus->counters_.handler_errors;
+    log::error("handler for ", channel, " (", type_name, ") failed: ", e.what());
+    return;
+  }
+  if (msg_utime > 0) {
+    bus->counters_.latency_sum_us += bus->clock_.now() - msg_utime;
+    ++bus->counters_.latency_count;
+  }
+}
+
+void Bus::publishRaw(const std::string& channel, const void* data, size_t size) {
+  if (lcm_.publish(channel, data, static_cast<unsigned int>(size)) == 0) {
+    ++counters_.published;
+  } else {
+    log::warn("publish on ", channel, " (", size, " bytes) failed");
+  }
+}
+
+void Bus::reportMalformed(const std::string& channel, const std::string& why) {
+  ++counters_.malformed;
+  // At most one line per second: a flood of bad messages must not flood the log.
+  std::lock_guard<std::mutex> lock(malformed_log_mutex_);
+  const Utime now = monotonicUtime();
+  if (now - last_malformed_log_ >= kMicrosPerSecond) {
+    last_malformed_log_ = now;
+    log::warn("malformed message on ", channel, ": ", why, " (", counters_.malformed.load(),
+              " so far); ignored");
+  }
+}
+
+double Bus::takeMeanLatencyMs() {
+  // Not atomic as a pair; a message counted between the two reads only skews
+  // one period's mean.
+  const int64_t n = counters_.latency_count.exchange(0);
+  const int64_t sum = counters_.latency_sum_us.exchange(0);
+  return n > 0 ? 1e-3 * static_cast<double>(sum) / static_cast<double>(n) : 0.0;
+}
+
+std::map<std::string, int64_t> Bus::receivedPerChannel() const {
+  std::map<std::string, int64_t> out;
+  for (const auto& s : subscriptions_) out[s->channel] += s->received.load();
+  return out;
+}
+
+}  // namespace vslam::bus

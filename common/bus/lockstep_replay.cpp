@@ -1,0 +1,119 @@
+#include "bus/lockstep_replay.hpp"
+
+#include <cstdio>
+#include <set>
+#include <stdexcept>
+
+#include "util/log.hpp"
+
+namespace vslam::bus {
+
+LockstepReplay::LockstepReplay(ReplayOptions options) : options_(std::move(options)) {
+  lcm_ = std::make_unique<lcm::LCM>("memq://");
+  if (!lcm_->good()) throw std::runtime_error("cannot create the memq:// LCM provider");
+  runner_ = std::make_unique<StageRunner>(
+      *lcm_, clock_, ExecutionMode::kLockstep,
+      RunnerOptions{"vslam-replay", options_.health_channel, options_.health_period_s});
+}
+
+LockstepReplay::~LockstepReplay() = default;
+
+void LockstepReplay::addStage(std::string instance, std::unique_ptr<Stage> stage) {
+  runner_->add(std::move(instance), std::move(stage));
+}
+
+void LockstepReplay::onAnyMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  const bool is_input = next_is_input_;
+  next_is_input_ = false;
+  if (!is_input) ++stats_.messages_published;
+  if (!out_) return;
+  if (is_input && !options_.keep_inputs) return;
+  if (!is_input && !options_.keep_health && channel == options_.health_channel) return;
+  lcm::LogEvent ev;
+  ev.eventnum = out_eventnum_++;
+  ev.timestamp = clock_.now();
+  ev.channel = channel;
+  ev.datalen = static_cast<int32_t>(rbuf->data_size);
+  ev.data = rbuf->data;
+  if (out_->writeEvent(&ev) != 0) {
+    throw std::runtime_error("cannot write to " + options_.output.string());
+  }
+  ++stats_.events_written;
+}
+
+void LockstepReplay::dispatchUntilQuiet() {
+  // A handler may publish; memq queues it and the loop dispatches it too.
+  // Stages' background work is drained so nothing is left in flight.
+  for (;;) {
+    while (lcm_->handleTimeout(0) > 0) {
+    }
+    runner_->drainAll();
+    if (lcm_->handleTimeout(0) <= 0) break;
+  }
+}
+
+ReplayStats LockstepReplay::run() {
+  stats_ = ReplayStats{};
+  lcm::LogFile in(options_.input.string(), "r");
+  if (!in.good()) throw std::runtime_error("cannot open input log " + options_.input.string());
+  if (!options_.output.empty()) {
+    out_ = std::make_unique<lcm::LogFile>(options_.output.string(), "w");
+    if (!out_->good()) throw std::runtime_error("cannot create " + options_.output.string());
+  }
+  lcm_->subscribe(".*", &LockstepReplay::onAnyMessage, this);
+
+  // Re-running a stage replaces its recorded output instead of mixing with it.
+  const auto outputs = runner_->outputChannels();
+  const std::set<std::string> stage_outputs(outputs.begin(), outputs.end());
+  const std::regex input_filter(options_.input_channels);
+
+  const Utime wall_start = monotonicUtime();
+  Utime first_ts = 0, last_ts = 0;
+  bool started = false;
+  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    ++stats_.events_read;
+    if (!started) {
+      first_ts = ev->timestamp;
+      clock_.set(ev->timestamp);
+      runner_->startAll();
+      dispatchUntilQuiet();
+      started = true;
+    }
+    // Log time never runs backwards for the stages, even if the log's does.
+    if (ev->timestamp > clock_.now()) clock_.set(ev->timestamp);
+    last_ts = std::max(last_ts, ev->timestamp);
+    runner_->tick(clock_.now());
+    dispatchUntilQuiet();
+    if (stage_outputs.count(ev->channel) || !std::regex_match(ev->channel, input_filter)) {
+      ++stats_.events_dropped;
+      continue;
+    }
+    next_is_input_ = true;
+    lcm_->publish(ev->channel, ev->data, static_cast<unsigned int>(ev->datalen));
+    ++stats_.events_fed;
+    dispatchUntilQuiet();
+  }
+  // readNextEvent returns null at the end and on a damaged tail alike; the
+  // file position tells them apart.
+  FILE* f = in.getFilePtr();
+  const long pos = std::ftell(f);
+  std::fseek(f, 0, SEEK_END);
+  const long end = std::ftell(f);
+  if (pos >= 0 && end > pos) {
+    stats_.input_truncated = true;
+    stats_.input_bytes_unread = end - pos;
+    log::warn("input log ", options_.input.string(), " ends with ", end - pos,
+              " bytes that are not a complete event (cut or corrupt); replayed the ",
+              stats_.events_read, " complete events before them");
+  }
+  if (started) {
+    runner_->stopAll();
+    dispatchUntilQuiet();
+  }
+  out_.reset();  // closes and flushes the output log
+  stats_.log_seconds = toSeconds(last_ts - first_ts);
+  stats_.wall_seconds = toSeconds(monotonicUtime() - wall_start);
+  return stats_;
+}
+
+}  // namespace vslam::bus

@@ -1,0 +1,332 @@
+#include "config/config_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+namespace vslam::config {
+namespace {
+
+std::string describeRange(const InRange& r) {
+  std::ostringstream os;
+  if (std::isinf(r.min) && std::isinf(r.max)) return "a number";
+  if (std::isinf(r.max)) {
+    if (r.min == std::numeric_limits<double>::min()) return "a number > 0";
+    os << "a number >= " << r.min;
+  } else if (std::isinf(r.min)) {
+    os << "a number <= " << r.max;
+  } else {
+    os << "a number in [" << r.min << ", " << r.max << "]";
+  }
+  return os.str();
+}
+
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
+    }
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+const char* typeName(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Null: return "nothing (null)";
+    case YAML::NodeType::Scalar: return "a scalar";
+    case YAML::NodeType::Sequence: return "a list";
+    case YAML::NodeType::Map: return "a mapping";
+    default: return "undefined";
+  }
+}
+
+// YAML 1.2 core-schema words only: "yes"/"on" are strings, not booleans.
+bool parseBool(const std::string& s, bool* out) {
+  if (s == "true" || s == "True" || s == "TRUE") return *out = true, true;
+  if (s == "false" || s == "False" || s == "FALSE") return *out = false, true;
+  return false;
+}
+
+bool parseDouble(const std::string& s, double* out) {
+  if (s.empty()) return false;
+  const char* begin = s.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end != begin + s.size() || errno == ERANGE) return false;
+  *out = v;
+  return true;
+}
+
+}  // namespace
+
+ConfigError::ConfigError(std::string file, std::string key, std::string problem)
+    : std::runtime_error(file + ": " + (key.empty() ? std::string() : key + ": ") + problem),
+      file_(std::move(file)),
+      key_(std::move(key)),
+      problem_(std::move(problem)) {}
+
+ConfigNode::ConfigNode(std::shared_ptr<const Document> doc, YAML::Node node, std::string path)
+    : doc_(std::move(doc)),
+      node_(std::move(node)),
+      path_(std::move(path)),
+      used_(std::make_shared<std::set<std::string>>()) {}
+
+ConfigNode ConfigNode::loadFile(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw ConfigError(file.string(), "", "cannot open the configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return loadString(text.str(), file.string(), file.parent_path().empty() ? "." : file.parent_path());
+}
+
+ConfigNode ConfigNode::loadString(const std::string& yaml, const std::string& origin,
+                                  const std::filesystem::path& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(origin, "",
+                      "YAML syntax error at line " + std::to_string(e.mark.line + 1) +
+                          ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg);
+  }
+  if (!root.IsMap()) {
+    throw ConfigError(origin, "", std::string("expected a mapping at the top level, found ") +
+                                      typeName(root));
+  }
+  auto doc = std::make_shared<Document>(Document{origin, base_dir});
+  return ConfigNode(doc, root, "");
+}
+
+std::string ConfigNode::childPath(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+ConfigError ConfigNode::error(const std::string& key, const std::string& problem) const {
+  return ConfigError(doc_->file, childPath(key), problem);
+}
+
+bool ConfigNode::has(const std::string& key) const {
+  return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
+}
+
+std::vector<std::string> ConfigNode::keys() const {
+  std::vector<std::string> out;
+  for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+  return out;
+}
+
+void ConfigNode::markUsed(const std::string& key) const { used_->insert(key); }
+
+ConfigNode ConfigNode::child(const std::string& key) const {
+  markUsed(key);
+  if (!has(key)) throw error(key, "missing (expected a mapping)");
+  YAML::Node n = node_[key];
+  if (!n.IsMap()) throw error(key, std::string("expected a mapping, found ") + typeName(n));
+  return ConfigNode(doc_, n, childPath(key));
+}
+
+std::vector<ConfigNode> ConfigNode::sequence(const std::string& key) const {
+  markUsed(key);
+  if (!has(key)) throw error(key, "missing (expected a list)");
+  YAML::Node n = node_[key];
+  if (!n.IsSequence()) throw error(key, std::string("expected a list, found ") + typeName(n));
+  std::vector<ConfigNode> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsMap()) {
+      throw error(key + "[" + std::to_string(i) + "]",
+                  std::string("expected a mapping, found ") + typeName(n[i]));
+    }
+    out.push_back(ConfigNode(doc_, n[i], childPath(key) + "[" + std::to_string(i) + "]"));
+  }
+  return out;
+}
+
+YAML::Node ConfigNode::scalar(const std::string& key, const char* what) const {
+  markUsed(key);
+  if (!has(key)) throw error(key, std::string("missing (expected ") + what + ")");
+  YAML::Node n = node_[key];
+  if (!n.IsScalar()) {
+    throw error(key, std::string("expected ") + what + ", found " + typeName(n));
+  }
+  return n;
+}
+
+double ConfigNode::getDouble(const std::string& key, InRange range) const {
+  const YAML::Node n = scalar(key, describeRange(range).c_str());
+  double v = 0;
+  if (!parseDouble(n.Scalar(), &v) || !std::isfinite(v)) {
+    throw error(key, "expected " + describeRange(range) + ", found '" + n.Scalar() + "'");
+  }
+  if (v < range.min || v > range.max) {
+    std::ostringstream os;
+    os << "expected " << describeRange(range) << ", found " << v;
+    throw error(key, os.str());
+  }
+  return v;
+}
+
+int64_t ConfigNode::getInt(const std::string& key, InRange range) const {
+  const std::string what = "an integer" + describeRange(range).substr(8);
+  const YAML::Node n = scalar(key, what.c_str());
+  double v = 0;
+  if (!parseDouble(n.Scalar(), &v) || v != std::floor(v) || std::abs(v) > 9.0e15) {
+    throw error(key, "expected " + what + ", found '" + n.Scalar() + "'");
+  }
+  if (v < range.min || v > range.max) {
+    throw error(key, "expected " + what + ", found " + n.Scalar());
+  }
+  return static_cast<int64_t>(v);
+}
+
+bool ConfigNode::getBool(const std::string& key) const {
+  const YAML::Node n = scalar(key, "true or false");
+  bool v = false;
+  if (n.Tag() == "!" || !parseBool(n.Scalar(), &v)) {
+    throw error(key, "expected true or false, found '" + n.Scalar() + "'");
+  }
+  return v;
+}
+
+std::string ConfigNode::getString(const std::string& key, bool allow_empty) const {
+  const YAML::Node n = scalar(key, "a string");
+  if (!allow_empty && n.Scalar().empty()) throw error(key, "expected a non-empty string");
+  return n.Scalar();
+}
+
+std::string ConfigNode::getEnum(const std::string& key,
+                                const std::vector<std::string>& allowed) const {
+  std::string joined;
+  for (const auto& a : allowed) joined += (joined.empty() ? "" : ", ") + a;
+  const YAML::Node n = scalar(key, ("one of: " + joined).c_str());
+  if (std::find(allowed.begin(), allowed.end(), n.Scalar()) == allowed.end()) {
+    throw error(key, "expected one of: " + joined + "; found '" + n.Scalar() + "'");
+  }
+  return n.Scalar();
+}
+
+std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exist) const {
+  const std::string raw = getString(key);
+  std::filesystem::path p(raw);
+  if (p.is_relative()) p = doc_->base_dir / p;
+  p = p.lexically_normal();
+  if (must_exist && !std::filesystem::exists(p)) {
+    throw error(key, "file '" + raw + "' not found (looked for " + p.string() + ")");
+  }
+  return p;
+}
+
+std::string ConfigNode::getChannel(const std::string& key) const {
+  const std::string c = getString(key);
+  static const std::regex kUpperSnake("^[A-Z][A-Z0-9_]*$");
+  if (!std::regex_match(c, kUpperSnake)) {
+    throw error(key, "expected an LCM channel name in UPPER_SNAKE_CASE, found '" + c + "'");
+  }
+  return c;
+}
+
+std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expected_size,
+                                           InRange range) const {
+  markUsed(key);
+  const std::string what =
+      "a list of " + std::to_string(expected_size) + " numbers" +
+      (std::isinf(range.min) && std::isinf(range.max) ? "" : " each " + describeRange(range).substr(2));
+  if (!has(key)) throw error(key, "missing (expected " + what + ")");
+  const YAML::Node n = node_[key];
+  if (!n.IsSequence() || n.size() != expected_size) {
+    throw error(key, "expected " + what + ", found " +
+                         (n.IsSequence() ? "a list of " + std::to_string(n.size()) : typeName(n)));
+  }
+  std::vector<double> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    double v = 0;
+    if (!n[i].IsScalar() || !parseDouble(n[i].Scalar(), &v) || !std::isfinite(v) ||
+        v < range.min || v > range.max) {
+      throw error(key + "[" + std::to_string(i) + "]",
+                  "expected " + describeRange(range) + ", found '" +
+                      (n[i].IsScalar() ? n[i].Scalar() : typeName(n[i])) + "'");
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+std::vector<std::string> ConfigNode::getStrings(const std::string& key) const {
+  markUsed(key);
+  if (!has(key)) throw error(key, "missing (expected a list of strings)");
+  const YAML::Node n = node_[key];
+  if (!n.IsSequence()) throw error(key, std::string("expected a list of strings, found ") + typeName(n));
+  std::vector<std::string> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsScalar() || n[i].Scalar().empty()) {
+      throw error(key + "[" + std::to_string(i) + "]", "expected a non-empty string");
+    }
+    out.push_back(n[i].Scalar());
+  }
+  return out;
+}
+
+double ConfigNode::getDouble(const std::string& key, double fallback, InRange range) const {
+  if (!has(key)) {
+    markUsed(key);
+    return fallback;
+  }
+  return getDouble(key, range);
+}
+
+int64_t ConfigNode::getInt(const std::string& key, int64_t fallback, InRange range) const {
+  if (!has(key)) {
+    markUsed(key);
+    return fallback;
+  }
+  return getInt(key, range);
+}
+
+bool ConfigNode::getBool(const std::string& key, bool fallback) const {
+  if (!has(key)) {
+    markUsed(key);
+    return fallback;
+  }
+  return getBool(key);
+}
+
+std::string ConfigNode::getString(const std::string& key, const std::string& fallback) const {
+  if (!has(key)) {
+    markUsed(key);
+    return fallback;
+  }
+  return getString(key);
+}
+
+void ConfigNode::requireAllKeysUsed() const {
+  if (!node_.IsMap()) return;
+  std::vector<std::string> known(used_->begin(), used_->end());
+  for (const auto& kv : node_) {
+    const std::string key = kv.first.as<std::string>();
+    if (used_->count(key)) continue;
+    std::string best;
+    size_t best_d = 1000;
+    for (const auto& k : known) {
+      const size_t d = editDistance(key, k);
+      if (d < best_d) best_d = d, best = k;
+    }
+    std::string problem = "unknown key";
+    if (!best.empty() && best_d <= std::max<size_t>(2, key.size() / 3)) {
+      problem += " (did you mean '" + best + "'?)";
+    }
+    if (!known.empty()) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      problem += "; known keys here: " + list;
+    }
+    throw error(key, problem);
+  }
+}
+
+}  // namespace vslam::config

@@ -1,0 +1,156 @@
+#include "config/robot_config.hpp"
+
+#include <opencv2/core.hpp>
+#include <ostream>
+#include <set>
+
+#include "util/angles.hpp"
+
+namespace vslam::config {
+namespace {
+
+// Reads the OpenCV calibration file format (as written by
+// cv::calibrateCamera examples): image_width, image_height, camera_matrix,
+// distortion_coefficients.
+void readOpenCvCalibration(const ConfigNode& node, const std::string& key, CameraConfig* cam) {
+  const std::string file = cam->calibration_file.string();
+  cv::FileStorage fs;
+  try {
+    fs.open(file, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw node.error(key, "cannot parse OpenCV calibration file " + file + ": " + e.what());
+  }
+  if (!fs.isOpened()) throw node.error(key, "cannot open OpenCV calibration file " + file);
+  auto fail = [&](const std::string& what) {
+    return ConfigError(file, what, "in the calibration of camera '" + cam->name + "'");
+  };
+  cv::Mat k, d;
+  if (fs["image_width"].empty() || fs["image_height"].empty()) {
+    throw fail("image_width/image_height missing");
+  }
+  cam->width = static_cast<int>(fs["image_width"]);
+  cam->height = static_cast<int>(fs["image_height"]);
+  fs["camera_matrix"] >> k;
+  fs["distortion_coefficients"] >> d;
+  if (k.rows != 3 || k.cols != 3) throw fail("camera_matrix must be a 3x3 matrix");
+  k.convertTo(k, CV_64F);
+  cam->fx = k.at<double>(0, 0);
+  cam->fy = k.at<double>(1, 1);
+  cam->cx = k.at<double>(0, 2);
+  cam->cy = k.at<double>(1, 2);
+  if (cam->width <= 0 || cam->height <= 0 || cam->width > 8192 || cam->height > 8192) {
+    throw fail("image_width/image_height must be in 1..8192");
+  }
+  if (!(cam->fx > 0) || !(cam->fy > 0)) throw fail("camera_matrix focal lengths must be > 0");
+  cam->distortion.clear();
+  if (!d.empty()) {
+    d.convertTo(d, CV_64F);
+    const size_t n = d.total();
+    static const std::set<size_t> kValid = {4, 5, 8, 12, 14};
+    if (!kValid.count(n)) throw fail("distortion_coefficients must have 4, 5, 8, 12 or 14 entries");
+    for (size_t i = 0; i < n; ++i) cam->distortion.push_back(d.at<double>(static_cast<int>(i)));
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix3d robotRotationCamera(double yaw_rad, double pitch_rad, double roll_rad) {
+  // Columns: the camera's x (right), y (down), z (optical axis) in the robot
+  // frame for a forward-looking level camera.
+  Eigen::Matrix3d forward;
+  forward << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const Eigen::Matrix3d r = (Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(-pitch_rad, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  return r * forward;
+}
+
+RobotConfig RobotConfig::load(const ConfigNode& node) {
+  RobotConfig robot;
+  robot.file = node.file();
+  robot.name = node.getString("name");
+
+  std::set<std::string> names, channels_seen;
+  for (const ConfigNode& c : node.sequence("cameras")) {
+    CameraConfig cam;
+    cam.name = c.getString("name");
+    if (!names.insert(cam.name).second) throw c.error("name", "duplicate camera '" + cam.name + "'");
+    cam.calibration_file = c.getPath("calibration");
+    readOpenCvCalibration(c, "calibration", &cam);
+    cam.frame_rate_hz = c.getDouble("frame_rate_hz", InRange{0.1, 1000});
+    const auto t = c.getDoubles("position_m", 3, InRange{-10, 10});
+    const ConfigNode o = c.child("orientation_deg");
+    const double yaw = degToRad(o.getDouble("yaw", InRange{-360, 360}));
+    const double pitch = degToRad(o.getDouble("pitch", InRange{-90, 90}));
+    const double roll = degToRad(o.getDouble("roll", InRange{-180, 180}));
+    o.requireAllKeysUsed();
+    cam.robot_T_camera.linear() = robotRotationCamera(yaw, pitch, roll);
+    cam.robot_T_camera.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+    cam.image_channel = c.getChannel("image_channel");
+    cam.calibration_channel = c.getChannel("calibration_channel");
+    c.requireAllKeysUsed();
+    robot.cameras.push_back(cam);
+  }
+  if (robot.cameras.empty()) throw node.error("cameras", "at least one camera is required");
+
+  const ConfigNode ch = node.child("channels");
+  ChannelNames& n = robot.channels;
+  n.odometry = ch.getChannel("odometry");
+  n.ground_truth = ch.getChannel("ground_truth");
+  n.health = ch.getChannel("health");
+  n.pose_estimate = ch.getChannel("pose_estimate");
+  n.pose_odometry = ch.getChannel("pose_odometry");
+  n.visual_measurement = ch.getChannel("visual_measurement");
+  n.visual_measurement_filtered = ch.getChannel("visual_measurement_filtered");
+  n.landmark_proposal = ch.getChannel("landmark_proposal");
+  n.landmark_update = ch.getChannel("landmark_update");
+  n.landmark_summary = ch.getChannel("landmark_summary");
+  n.landmark_request = ch.getChannel("landmark_request");
+  n.map = ch.getChannel("map");
+  n.particles = ch.getChannel("particles");
+  n.appearance_hypotheses = ch.getChannel("appearance_hypotheses");
+  n.appearance_map = ch.getChannel("appearance_map");
+  n.appearance_event = ch.getChannel("appearance_event");
+  ch.requireAllKeysUsed();
+
+  // A channel carries one type: no two roles may share a name.
+  for (const std::string& key : ch.keys()) {
+    if (!channels_seen.insert(ch.getString(key)).second) {
+      throw ch.error(key, "channel '" + ch.getString(key) + "' is used twice");
+    }
+  }
+  for (const auto& cam : robot.cameras) {
+    for (const auto* c : {&cam.image_channel, &cam.calibration_channel}) {
+      if (!channels_seen.insert(*c).second) {
+        throw node.error("cameras", "channel '" + *c + "' of camera '" + cam.name + "' is used twice");
+      }
+    }
+  }
+  node.requireAllKeysUsed();
+  return robot;
+}
+
+RobotConfig RobotConfig::loadFile(const std::filesystem::path& file) {
+  return load(ConfigNode::loadFile(file));
+}
+
+const CameraConfig& RobotConfig::camera(const std::string& camera_name) const {
+  for (const auto& c : cameras) {
+    if (c.name == camera_name) return c;
+  }
+  throw std::out_of_range("no camera named '" + camera_name + "' in robot '" + name + "'");
+}
+
+void RobotConfig::print(std::ostream& os) const {
+  os << "robot " << name << " (" << file.string() << ")\n";
+  for (const auto& c : cameras) {
+    const Eigen::Vector3d t = c.robot_T_camera.translation();
+    os << "  camera " << c.name << ": " << c.width << "x" << c.height << " @ " << c.frame_rate_hz
+       << " Hz, fx=" << c.fx << " fy=" << c.fy << " cx=" << c.cx << " cy=" << c.cy
+       << ", position [" << t.x() << ", " << t.y() << ", " << t.z() << "] m, channels "
+       << c.image_channel << " " << c.calibration_channel << "\n";
+  }
+}
+
+}  // namespace vslam::config

@@ -1,0 +1,16 @@
+#include "stages/builtin_stages.hpp"
+
+#include "stages/deadreckon_stage.hpp"
+
+namespace vslam::stages {
+
+const bus::StageRegistry& builtinStages() {
+  static const bus::StageRegistry registry = [] {
+    bus::StageRegistry r;
+    registerDeadReckon(r);
+    return r;
+  }();
+  return registry;
+}
+
+}  // namespace vslam::stages

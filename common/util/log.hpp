@@ -1,0 +1,44 @@
+#pragma once
+// Minimal structured logging: every line carries wall-clock time, level and the
+// process instance name, so the interleaved output of a process group stays
+// readable. Thread-safe; writes to stderr.
+
+#include <sstream>
+#include <string>
+
+namespace vslam::log {
+
+enum class Level { kDebug = 0, kInfo = 1, kWarn = 2, kError = 3 };
+
+// Sets the name printed on every line (e.g. "frontend_forward").
+void setProcessName(const std::string& name);
+void setMinLevel(Level level);
+Level minLevel();
+void write(Level level, const std::string& message);
+
+namespace detail {
+inline void append(std::ostringstream&) {}
+template <class T, class... Rest>
+void append(std::ostringstream& os, const T& first, const Rest&... rest) {
+  os << first;
+  append(os, rest...);
+}
+template <class... Args>
+void emit(Level level, const Args&... args) {
+  if (level < minLevel()) return;
+  std::ostringstream os;
+  append(os, args...);
+  write(level, os.str());
+}
+}  // namespace detail
+
+template <class... Args>
+void debug(const Args&... args) { detail::emit(Level::kDebug, args...); }
+template <class... Args>
+void info(const Args&... args) { detail::emit(Level::kInfo, args...); }
+template <class... Args>
+void warn(const Args&... args) { detail::emit(Level::kWarn, args...); }
+template <class... Args>
+void error(const Args&... args) { detail::emit(Level::kError, args...); }
+
+}  // namespace vslam::log
