@@ -70,7 +70,10 @@ ReplayStats LockstepReplay::run() {
   const Utime wall_start = monotonicUtime();
   Utime first_ts = 0, last_ts = 0;
   bool started = false;
+  FILE* file = in.getFilePtr();
+  long end_of_last_event = std::ftell(file);
   while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    end_of_last_event = std::ftell(file);
     ++stats_.events_read;
     if (!started) {
       first_ts = ev->timestamp;
@@ -93,12 +96,11 @@ ReplayStats LockstepReplay::run() {
     ++stats_.events_fed;
     dispatchUntilQuiet();
   }
-  // readNextEvent returns null at the end and on a damaged tail alike; the
-  // file position tells them apart.
-  FILE* f = in.getFilePtr();
-  const long pos = std::ftell(f);
-  std::fseek(f, 0, SEEK_END);
-  const long end = std::ftell(f);
+  // readNextEvent returns null at the end and on a damaged tail alike; bytes
+  // after the last complete event tell them apart.
+  std::fseek(file, 0, SEEK_END);
+  const long end = std::ftell(file);
+  const long pos = end_of_last_event;
   if (pos >= 0 && end > pos) {
     stats_.input_truncated = true;
     stats_.input_bytes_unread = end - pos;

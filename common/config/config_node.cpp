@@ -126,7 +126,7 @@ void ConfigNode::markUsed(const std::string& key) const { used_->insert(key); }
 
 ConfigNode ConfigNode::child(const std::string& key) const {
   markUsed(key);
-  if (!has(key)) throw error(key, "missing (expected a mapping)");
+  if (!has(key)) throw missing(key, "a mapping");
   YAML::Node n = node_[key];
   if (!n.IsMap()) throw error(key, std::string("expected a mapping, found ") + typeName(n));
   return ConfigNode(doc_, n, childPath(key));
@@ -134,7 +134,7 @@ ConfigNode ConfigNode::child(const std::string& key) const {
 
 std::vector<ConfigNode> ConfigNode::sequence(const std::string& key) const {
   markUsed(key);
-  if (!has(key)) throw error(key, "missing (expected a list)");
+  if (!has(key)) throw missing(key, "a list");
   YAML::Node n = node_[key];
   if (!n.IsSequence()) throw error(key, std::string("expected a list, found ") + typeName(n));
   std::vector<ConfigNode> out;
@@ -148,9 +148,24 @@ std::vector<ConfigNode> ConfigNode::sequence(const std::string& key) const {
   return out;
 }
 
+ConfigError ConfigNode::missing(const std::string& key, const std::string& what) const {
+  std::string problem = "missing (expected " + what + ")";
+  // A required key is most often "missing" because it is misspelt: name the culprit.
+  if (node_.IsMap()) {
+    for (const auto& kv : node_) {
+      const std::string other = kv.first.as<std::string>();
+      if (other != key && !used_->count(other) && editDistance(other, key) <= 2) {
+        problem += "; the unknown key '" + other + "' looks like a misspelling of it";
+        break;
+      }
+    }
+  }
+  return error(key, problem);
+}
+
 YAML::Node ConfigNode::scalar(const std::string& key, const char* what) const {
   markUsed(key);
-  if (!has(key)) throw error(key, std::string("missing (expected ") + what + ")");
+  if (!has(key)) throw missing(key, what);
   YAML::Node n = node_[key];
   if (!n.IsScalar()) {
     throw error(key, std::string("expected ") + what + ", found " + typeName(n));
@@ -237,7 +252,7 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
   const std::string what =
       "a list of " + std::to_string(expected_size) + " numbers" +
       (std::isinf(range.min) && std::isinf(range.max) ? "" : " each " + describeRange(range).substr(2));
-  if (!has(key)) throw error(key, "missing (expected " + what + ")");
+  if (!has(key)) throw missing(key, what);
   const YAML::Node n = node_[key];
   if (!n.IsSequence() || n.size() != expected_size) {
     throw error(key, "expected " + what + ", found " +
@@ -259,7 +274,7 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
 
 std::vector<std::string> ConfigNode::getStrings(const std::string& key) const {
   markUsed(key);
-  if (!has(key)) throw error(key, "missing (expected a list of strings)");
+  if (!has(key)) throw missing(key, "a list of strings");
   const YAML::Node n = node_[key];
   if (!n.IsSequence()) throw error(key, std::string("expected a list of strings, found ") + typeName(n));
   std::vector<std::string> out;

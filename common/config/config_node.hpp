@@ -105,6 +105,7 @@ class ConfigNode {
   };
   ConfigNode(std::shared_ptr<const Document> doc, YAML::Node node, std::string path);
   YAML::Node scalar(const std::string& key, const char* what) const;
+  ConfigError missing(const std::string& key, const std::string& what) const;
   std::string childPath(const std::string& key) const;
 
   std::shared_ptr<const Document> doc_;

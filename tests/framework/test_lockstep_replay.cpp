@@ -1,0 +1,262 @@
+// Lock-step replay with small stages: ordering, determinism, and bad input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <vslam/image_t.hpp>
+#include <vslam/odometry_t.hpp>
+#include <vslam/particle_set_t.hpp>
+#include <vslam/pose_estimate_t.hpp>
+
+#include "bus/latest_worker.hpp"
+#include "bus/lockstep_replay.hpp"
+#include "stages/deadreckon_stage.hpp"
+#include "support/test_logs.hpp"
+
+namespace fs = std::filesystem;
+using namespace vslam;
+using namespace vslam::bus;
+using vslam::test::readLog;
+using vslam::test::RecordedEvent;
+
+namespace {
+
+// Downsamples each camera image 4x on a LatestWinsWorker and republishes it.
+class ThumbnailStage final : public Stage {
+ public:
+  void start(StageContext& ctx) override {
+    ctx_ = &ctx;
+    worker_ = std::make_unique<LatestWinsWorker<vslam::image_t>>(
+        ctx.mode, [this](vslam::image_t& img) { process(img); });
+    ctx.bus.subscribe<vslam::image_t>(
+        "CAM_FORWARD_IMAGE", [this](const vslam::image_t& img) { worker_->post(img); }, 2);
+  }
+  void drain() override { worker_->drain(); }
+  void stop() override { worker_->stop(); }
+  std::vector<std::string> outputChannels() const override { return {"CAM_FORWARD_THUMB"}; }
+
+ private:
+  void process(const vslam::image_t& img) {
+    vslam::image_t out = img;
+    out.width = img.width / 4;
+    out.height = img.height / 4;
+    out.row_stride = out.width;
+    out.data.assign(static_cast<size_t>(out.width * out.height), 0);
+    for (int y = 0; y < out.height; ++y) {
+      for (int x = 0; x < out.width; ++x) {
+        out.data[y * out.width + x] = img.data[(4 * y) * img.row_stride + 4 * x];
+      }
+    }
+    out.data_size = static_cast<int32_t>(out.data.size());
+    ctx_->bus.publish("CAM_FORWARD_THUMB", out);
+  }
+  StageContext* ctx_ = nullptr;
+  std::unique_ptr<LatestWinsWorker<vslam::image_t>> worker_;
+};
+
+// Consumes another stage's output: every 25 poses, publishes the last 10 as a trail.
+class PoseTrailStage final : public Stage {
+ public:
+  void start(StageContext& ctx) override {
+    ctx_ = &ctx;
+    ctx.bus.subscribe<vslam::pose_estimate_t>("POSE_ODOMETRY",
+                                              [this](const vslam::pose_estimate_t& p) { onPose(p); });
+  }
+  std::vector<std::string> outputChannels() const override { return {"TRAIL"}; }
+
+ private:
+  void onPose(const vslam::pose_estimate_t& p) {
+    vslam::particle_t q{};
+    q.x = p.x;
+    q.y = p.y;
+    q.theta = p.theta;
+    q.weight = 0.1;
+    trail_.push_back(q);
+    if (trail_.size() > 10) trail_.erase(trail_.begin());
+    if (++count_ % 25 != 0) return;
+    vslam::particle_set_t out{};
+    out.utime = p.utime;
+    out.seq = count_ / 25;
+    out.estimator = ctx_->instance;
+    out.particles = trail_;
+    out.num_particles = static_cast<int32_t>(trail_.size());
+    ctx_->bus.publish("TRAIL", out);
+  }
+  StageContext* ctx_ = nullptr;
+  std::vector<vslam::particle_t> trail_;
+  int64_t count_ = 0;
+};
+
+std::unique_ptr<Stage> deadReckon() {
+  stages::DeadReckonParams p;
+  p.noise = {0.05, 0.05};
+  p.odometry_channel = "ODOMETRY";
+  p.pose_channel = "POSE_ODOMETRY";
+  return std::make_unique<stages::DeadReckonStage>(p);
+}
+
+ReplayStats replayWithTestStages(const fs::path& in, const fs::path& out, bool keep_health = false) {
+  ReplayOptions opt;
+  opt.input = in;
+  opt.output = out;
+  opt.keep_health = keep_health;
+  LockstepReplay replay(opt);
+  replay.addStage("deadreckon", deadReckon());
+  replay.addStage("thumbnail", std::make_unique<ThumbnailStage>());
+  replay.addStage("trail", std::make_unique<PoseTrailStage>());
+  return replay.run();
+}
+
+template <class Msg>
+Msg decode(const RecordedEvent& e) {
+  Msg m;
+  EXPECT_EQ(m.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+            static_cast<int>(e.data.size()));
+  return m;
+}
+
+int runCommand(const std::string& cmd, std::string* output) {
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return -1;
+  char buf[512];
+  while (std::fgets(buf, sizeof(buf), p)) *output += buf;
+  const int status = ::pclose(p);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+class LockstepReplayTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = vslam::test::scratchDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    input_ = dir_ / "input.lcmlog";
+    vslam::test::writeDrivingLog(input_, 10.0, 10.0);  // 501 odometry, 501 truth, 101 images
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_, input_;
+};
+
+}  // namespace
+
+TEST_F(LockstepReplayTest, EveryStageFinishesEachEventBeforeTheNext) {
+  const ReplayStats stats = replayWithTestStages(input_, dir_ / "out.lcmlog");
+  EXPECT_FALSE(stats.input_truncated);
+  EXPECT_EQ(stats.events_read, 501 + 501 + 101);
+  EXPECT_EQ(stats.events_fed, stats.events_read);
+  const auto out = readLog(dir_ / "out.lcmlog");
+
+  int odometry = 0, poses = 0, thumbs = 0, trails = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto& e = out[i];
+    if (e.channel == "HEALTH") ADD_FAILURE() << "health is not recorded by default";
+    if (e.channel == "ODOMETRY") {
+      const auto odo = decode<vslam::odometry_t>(e);
+      ++odometry;
+      // Its pose follows immediately, before the next input.
+      ASSERT_LT(i + 1, out.size());
+      ASSERT_EQ(out[i + 1].channel, "POSE_ODOMETRY") << "after odometry seq " << odo.seq;
+      const auto pose = decode<vslam::pose_estimate_t>(out[i + 1]);
+      EXPECT_EQ(pose.utime, odo.utime);
+      EXPECT_NEAR(pose.x, odo.x, 1e-9);
+      EXPECT_NEAR(pose.y, odo.y, 1e-9);
+      EXPECT_EQ(out[i + 1].timestamp, e.timestamp);  // output stamped with the input's log time
+    } else if (e.channel == "POSE_ODOMETRY") {
+      ++poses;
+      // The 25th, 50th, ... pose is followed by the second stage's trail.
+      if (poses % 25 == 0) {
+        ASSERT_EQ(out[i + 1].channel, "TRAIL");
+        const auto trail = decode<vslam::particle_set_t>(out[i + 1]);
+        EXPECT_EQ(trail.seq, poses / 25);
+        EXPECT_EQ(trail.num_particles, 10);
+        EXPECT_NEAR(trail.particles.back().x, decode<vslam::pose_estimate_t>(e).x, 1e-12);
+      }
+    } else if (e.channel == "CAM_FORWARD_IMAGE") {
+      ASSERT_EQ(out[i + 1].channel, "CAM_FORWARD_THUMB");
+      const auto img = decode<vslam::image_t>(e);
+      const auto thumb = decode<vslam::image_t>(out[i + 1]);
+      EXPECT_EQ(thumb.seq, img.seq);  // no frame dropped in lock-step
+      EXPECT_EQ(thumb.width, 80);
+      EXPECT_EQ(thumb.data[81], img.data[4 * 320 + 4]);
+      ++thumbs;
+    } else if (e.channel == "TRAIL") {
+      ++trails;
+    }
+  }
+  EXPECT_EQ(odometry, 501);
+  EXPECT_EQ(poses, 501);
+  EXPECT_EQ(thumbs, 101);
+  EXPECT_EQ(trails, 20);
+}
+
+TEST_F(LockstepReplayTest, TwoRunsGiveByteIdenticalOutput) {
+  replayWithTestStages(input_, dir_ / "a.lcmlog");
+  replayWithTestStages(input_, dir_ / "b.lcmlog");
+  const std::string a = vslam::test::readFileBytes(dir_ / "a.lcmlog");
+  const std::string b = vslam::test::readFileBytes(dir_ / "b.lcmlog");
+  ASSERT_GT(a.size(), 100000u);
+  EXPECT_TRUE(a == b) << "replay output differs between two runs";
+}
+
+TEST_F(LockstepReplayTest, HealthIsRecordedOnlyWhenAsked) {
+  replayWithTestStages(input_, dir_ / "h.lcmlog", /*keep_health=*/true);
+  int health = 0;
+  for (const auto& e : readLog(dir_ / "h.lcmlog")) health += e.channel == "HEALTH";
+  // 3 stages x (10 s of log at 1 Hz + a last one on stop).
+  EXPECT_GE(health, 3 * 10);
+  EXPECT_LE(health, 3 * 12);
+}
+
+TEST_F(LockstepReplayTest, RecordedStageOutputsAreReplacedNotFed) {
+  // A log that already holds POSE_ODOMETRY (from a live run): replay drops it
+  // from the input, so the output holds only the newly computed poses.
+  fs::path with_poses = dir_ / "with_poses.lcmlog";
+  replayWithTestStages(input_, with_poses);
+  const ReplayStats stats = replayWithTestStages(with_poses, dir_ / "again.lcmlog");
+  EXPECT_GT(stats.events_dropped, 500);
+  int poses = 0;
+  for (const auto& e : readLog(dir_ / "again.lcmlog")) poses += e.channel == "POSE_ODOMETRY";
+  EXPECT_EQ(poses, 501);
+}
+
+TEST_F(LockstepReplayTest, TruncatedLogIsReplayedUpToTheDamageAndReported) {
+  const std::string bytes = vslam::test::readFileBytes(input_);
+  const fs::path cut = dir_ / "cut.lcmlog";
+  std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  const ReplayStats stats = replayWithTestStages(cut, dir_ / "out.lcmlog");
+  EXPECT_TRUE(stats.input_truncated);
+  EXPECT_GT(stats.input_bytes_unread, 0);
+  EXPECT_GT(stats.events_read, 100);
+  EXPECT_LT(stats.events_read, 1103);
+  EXPECT_FALSE(readLog(dir_ / "out.lcmlog").empty());
+}
+
+TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
+  const std::string bin = std::string(VSLAM_BIN_DIR) + "/vslam-replay";
+  const std::string cfg = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
+  std::string log1, log2;
+  ASSERT_EQ(runCommand(bin + " " + input_.string() + " --config " + cfg + " --out " +
+                           (dir_ / "r1.lcmlog").string(), &log1), 0) << log1;
+  ASSERT_EQ(runCommand(bin + " " + input_.string() + " --config " + cfg + " --out " +
+                           (dir_ / "r2.lcmlog").string(), &log2), 0) << log2;
+  EXPECT_NE(log1.find("stage deadreckon"), std::string::npos) << log1;
+  const std::string a = vslam::test::readFileBytes(dir_ / "r1.lcmlog");
+  EXPECT_TRUE(a == vslam::test::readFileBytes(dir_ / "r2.lcmlog"));
+  int poses = 0;
+  for (const auto& e : readLog(dir_ / "r1.lcmlog")) poses += e.channel == "POSE_ODOMETRY";
+  EXPECT_EQ(poses, 501);
+
+  std::string err;
+  EXPECT_EQ(runCommand(bin + " /nonexistent.lcmlog --config " + cfg + " --out " +
+                           (dir_ / "x.lcmlog").string(), &err), 1);
+  EXPECT_NE(err.find("cannot open input log /nonexistent.lcmlog"), std::string::npos) << err;
+
+  const std::string bytes = vslam::test::readFileBytes(input_);
+  std::ofstream(dir_ / "cut.lcmlog", std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 3 / 4));
+  err.clear();
+  EXPECT_EQ(runCommand(bin + " " + (dir_ / "cut.lcmlog").string() + " --config " + cfg +
+                           " --out " + (dir_ / "cut_out.lcmlog").string(), &err), 1);
+  EXPECT_NE(err.find("not a complete event"), std::string::npos) << err;
+  EXPECT_FALSE(readLog(dir_ / "cut_out.lcmlog").empty());  // what was replayed is kept
+}

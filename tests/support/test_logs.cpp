@@ -1,0 +1,110 @@
+#include "support/test_logs.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <vslam/ground_truth_pose_t.hpp>
+#include <vslam/image_t.hpp>
+#include <vslam/odometry_t.hpp>
+
+namespace vslam::test {
+namespace {
+
+template <class Msg>
+void writeMsg(lcm::LogFile& log, int64_t& eventnum, int64_t t, const std::string& channel,
+              const Msg& msg) {
+  std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  lcm::LogEvent ev;
+  ev.eventnum = eventnum++;
+  ev.timestamp = t;
+  ev.channel = channel;
+  ev.datalen = static_cast<int32_t>(buf.size());
+  ev.data = buf.data();
+  if (log.writeEvent(&ev) != 0) throw std::runtime_error("cannot write test log");
+}
+
+}  // namespace
+
+void writeDrivingLog(const std::filesystem::path& file, double seconds, double image_hz) {
+  lcm::LogFile log(file.string(), "w");
+  if (!log.good()) throw std::runtime_error("cannot create " + file.string());
+  const int64_t t0 = 1700000000000000;
+  const double v = 0.3, omega = 0.2;  // m/s, rad/s
+  int64_t eventnum = 0, seq = 0, image_seq = 0;
+  const int64_t image_period = image_hz > 0 ? static_cast<int64_t>(1e6 / image_hz) : 0;
+  int64_t next_image = t0;
+  for (int64_t t = t0; t <= t0 + static_cast<int64_t>(seconds * 1e6); t += 20000, ++seq) {
+    const double s = (t - t0) * 1e-6;
+    const double th = omega * s;
+    vslam::odometry_t odo{};
+    odo.utime = t;
+    odo.seq = seq;
+    odo.x = v / omega * std::sin(th);
+    odo.y = v / omega * (1 - std::cos(th));
+    odo.theta = std::remainder(th, 2 * M_PI);
+    odo.distance = v * s;
+    odo.rotation = omega * s;
+    odo.v = v;
+    odo.omega = omega;
+    writeMsg(log, eventnum, t, "ODOMETRY", odo);
+    vslam::ground_truth_pose_t gt{};
+    gt.utime = t;
+    gt.seq = seq;
+    gt.x = odo.x;
+    gt.y = odo.y;
+    gt.theta = odo.theta;
+    writeMsg(log, eventnum, t + 100, "GROUND_TRUTH", gt);
+    if (image_period > 0 && t >= next_image) {
+      vslam::image_t img{};
+      img.utime = t;
+      img.seq = image_seq++;
+      img.camera = "forward";
+      img.width = 320;
+      img.height = 240;
+      img.row_stride = 320;
+      img.encoding = vslam::image_t::ENCODING_GRAY8;
+      img.exposure = 1.0f;
+      img.data.resize(320 * 240);
+      for (int y = 0; y < 240; ++y) {
+        for (int x = 0; x < 320; ++x) {
+          img.data[y * 320 + x] = static_cast<uint8_t>((x + y + 3 * img.seq) * 7 % 251);
+        }
+      }
+      img.data_size = static_cast<int32_t>(img.data.size());
+      writeMsg(log, eventnum, t + 200, "CAM_FORWARD_IMAGE", img);
+      next_image += image_period;
+    }
+  }
+}
+
+std::vector<RecordedEvent> readLog(const std::filesystem::path& file) {
+  lcm::LogFile log(file.string(), "r");
+  if (!log.good()) throw std::runtime_error("cannot open " + file.string());
+  std::vector<RecordedEvent> out;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    const auto* d = static_cast<const uint8_t*>(ev->data);
+    out.push_back({ev->timestamp, ev->channel, std::vector<uint8_t>(d, d + ev->datalen)});
+  }
+  return out;
+}
+
+std::string readFileBytes(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::filesystem::path scratchDir(const std::string& tag) {
+  auto dir = std::filesystem::temp_directory_path() /
+             ("vslam_" + tag + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace vslam::test
