@@ -1,12 +1,35 @@
 #include "bus/lockstep_replay.hpp"
 
 #include <cstdio>
+#include <cstring>
 #include <set>
 #include <stdexcept>
 
 #include "util/log.hpp"
 
 namespace vslam::bus {
+namespace {
+
+// Position of the next LCM event sync word (0xEDA1DA01, big-endian) at or
+// after `from`, or -1.
+long findNextSyncWord(FILE* file, long from) {
+  if (from < 0 || std::fseek(file, from, SEEK_SET) != 0) return -1;
+  const unsigned char sync[4] = {0xED, 0xA1, 0xDA, 0x01};
+  unsigned char window[4] = {0, 0, 0, 0};
+  long pos = from;
+  int c;
+  while ((c = std::fgetc(file)) != EOF) {
+    window[0] = window[1];
+    window[1] = window[2];
+    window[2] = window[3];
+    window[3] = static_cast<unsigned char>(c);
+    ++pos;
+    if (pos - from >= 4 && std::memcmp(window, sync, 4) == 0) return pos - 4;
+  }
+  return -1;
+}
+
+}  // namespace
 
 LockstepReplay::LockstepReplay(ReplayOptions options) : options_(std::move(options)) {
   lcm_ = std::make_unique<lcm::LCM>("memq://");
@@ -72,9 +95,31 @@ ReplayStats LockstepReplay::run() {
   bool started = false;
   FILE* file = in.getFilePtr();
   long end_of_last_event = std::ftell(file);
-  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+  int64_t last_eventnum = -1;
+  for (;;) {
+    const lcm::LogEvent* ev = in.readNextEvent();
+    if (!ev) {
+      // LCM's reader stops at a damaged event header; skip to the next sync
+      // word and go on, so one bad event does not lose the rest of the log.
+      const long resume = findNextSyncWord(file, end_of_last_event + 1);
+      if (resume < 0) break;
+      log::warn("input log ", options_.input.string(), ": damaged data at bytes ",
+                end_of_last_event, "..", resume, "; skipped to the next event");
+      stats_.bytes_skipped += resume - end_of_last_event;
+      std::fseek(file, resume, SEEK_SET);
+      end_of_last_event = resume;
+      continue;
+    }
     end_of_last_event = std::ftell(file);
     ++stats_.events_read;
+    // lcm-logger numbers events consecutively: a gap is events lost to damage.
+    if (stats_.events_read > 1 && ev->eventnum > last_eventnum + 1) {
+      const int64_t gap = ev->eventnum - last_eventnum - 1;
+      stats_.events_missing += gap;
+      log::warn("input log ", options_.input.string(), ": ", gap, " event(s) missing before event ",
+                ev->eventnum, "; continuing");
+    }
+    last_eventnum = ev->eventnum;
     if (!started) {
       first_ts = ev->timestamp;
       clock_.set(ev->timestamp);

@@ -37,6 +37,8 @@ struct ReplayStats {
   int64_t messages_published = 0;  // by stages
   double log_seconds = 0;        // span of the input log's timestamps
   double wall_seconds = 0;
+  int64_t events_missing = 0;    // gaps in the input's event numbers (damaged events skipped)
+  int64_t bytes_skipped = 0;     // damaged bytes skipped to resynchronise
   bool input_truncated = false;  // the log ended inside an event (corrupt or cut tail)
   int64_t input_bytes_unread = 0;
 };

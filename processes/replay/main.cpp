@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
               "; wrote ", s.events_written, " events to ", options.output.string(), "; ",
               s.log_seconds, " s of log in ", s.wall_seconds, " s (",
               s.wall_seconds > 0 ? s.log_seconds / s.wall_seconds : 0.0, "x real time)");
-    return s.input_truncated ? bus::kExitFailure : bus::kExitOk;
+    return s.input_truncated || s.events_missing > 0 ? bus::kExitFailure : bus::kExitOk;
   } catch (const config::ConfigError& e) {
     log::error("configuration error: ", e.what());
     return bus::kExitUsage;
