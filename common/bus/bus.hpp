@@ -129,10 +129,12 @@ void Bus::subscribe(const std::string& channel, std::function<void(const Msg&)> 
 
 template <class Msg>
 void Bus::publish(const std::string& channel, const Msg& msg) {
+  // Reused per thread: an image-sized buffer is not re-faulted every frame.
+  thread_local std::vector<uint8_t> buffer;
   const int size = msg.getEncodedSize();
-  std::vector<uint8_t> buffer(static_cast<size_t>(size));
+  buffer.resize(static_cast<size_t>(size));
   msg.encode(buffer.data(), 0, size);
-  publishRaw(channel, buffer.data(), buffer.size());
+  publishRaw(channel, buffer.data(), static_cast<size_t>(size));
 }
 
 }  // namespace vslam::bus
