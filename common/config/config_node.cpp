@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <regex>
+#include <cctype>
 #include <sstream>
 
 namespace vslam::config {
@@ -239,8 +239,13 @@ std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exis
 
 std::string ConfigNode::getChannel(const std::string& key) const {
   const std::string c = getString(key);
-  static const std::regex kUpperSnake("^[A-Z][A-Z0-9_]*$");
-  if (!std::regex_match(c, kUpperSnake)) {
+  const bool upper_snake =
+      std::isupper(static_cast<unsigned char>(c[0])) &&
+      std::all_of(c.begin(), c.end(), [](char ch) {
+        return std::isupper(static_cast<unsigned char>(ch)) ||
+               std::isdigit(static_cast<unsigned char>(ch)) || ch == '_';
+      });
+  if (!upper_snake) {
     throw error(key, "expected an LCM channel name in UPPER_SNAKE_CASE, found '" + c + "'");
   }
   return c;
