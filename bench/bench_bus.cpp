@@ -36,9 +36,8 @@ static void BM_BusRoundTripImage(benchmark::State& state) {
   lcm::LCM lcm("memq://");
   WallClock clock;
   bus::Bus bus(lcm, clock, "bench");
-  bus.subscribe<vslam::image_t>("IMG", [&](const vslam::image_t& img) {
-    benchmark::DoNotOptimize(img.data.data());
-  });
+  bus.subscribe<vslam::image_t>(
+      "IMG", [&](const vslam::image_t& img) { benchmark::DoNotOptimize(img.data.data()); });
   vslam::image_t img{};
   img.width = w;
   img.height = h;

@@ -8,10 +8,9 @@
 // (rate-limited) with its channel, and an exception thrown by a handler is
 // logged and counted without ending the process.
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <atomic>
 #include <functional>
+#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <memory>
 #include <mutex>

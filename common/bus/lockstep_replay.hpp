@@ -21,21 +21,21 @@ namespace vslam::bus {
 
 struct ReplayOptions {
   std::filesystem::path input;
-  std::filesystem::path output;   // empty: write nothing
+  std::filesystem::path output;  // empty: write nothing
   std::string health_channel = "HEALTH";
   double health_period_s = 1.0;
-  bool keep_health = false;       // also record the stages' health messages
-  bool keep_inputs = true;        // record the input events fed to the stages
+  bool keep_health = false;           // also record the stages' health messages
+  bool keep_inputs = true;            // record the input events fed to the stages
   std::string input_channels = ".*";  // regex: only feed matching input channels
 };
 
 struct ReplayStats {
   int64_t events_read = 0;
   int64_t events_fed = 0;
-  int64_t events_dropped = 0;    // on a channel a stage publishes, or not matching input_channels
+  int64_t events_dropped = 0;  // on a channel a stage publishes, or not matching input_channels
   int64_t events_written = 0;
   int64_t messages_published = 0;  // by stages
-  double log_seconds = 0;        // span of the input log's timestamps
+  double log_seconds = 0;          // span of the input log's timestamps
   double wall_seconds = 0;
   int64_t events_missing = 0;    // gaps in the input's event numbers (damaged events skipped)
   int64_t bytes_skipped = 0;     // damaged bytes skipped to resynchronise

@@ -66,8 +66,7 @@ bool parseArgs(int argc, char** argv, ProcessArgs* args, bool* help) {
 
 }  // namespace
 
-int runStageProcess(int argc, char** argv, const std::string& role,
-                    const StageRegistry& registry) {
+int runStageProcess(int argc, char** argv, const std::string& role, const StageRegistry& registry) {
   const std::string program = "vslam-" + role;
   ProcessArgs args;
   bool help = false;
@@ -98,8 +97,8 @@ int runStageProcess(int argc, char** argv, const std::string& role,
   }
   if (args.print_config) {
     stack->robot.print(std::cout);
-    std::cout << "instance " << args.instance << " (role " << role << ") from "
-              << args.config_file << "\n";
+    std::cout << "instance " << args.instance << " (role " << role << ") from " << args.config_file
+              << "\n";
     return kExitOk;
   }
 
@@ -111,8 +110,8 @@ int runStageProcess(int argc, char** argv, const std::string& role,
                "dev lo)");
     return kExitFailure;
   }
-  log::info(program, " started: instance ", args.instance, ", config ", args.config_file,
-            ", LCM ", url);
+  log::info(program, " started: instance ", args.instance, ", config ", args.config_file, ", LCM ",
+            url);
 
   installStopSignalHandlers();
   WallClock clock;

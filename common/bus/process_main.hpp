@@ -17,7 +17,6 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitUsage = 2;
 
-int runStageProcess(int argc, char** argv, const std::string& role,
-                    const StageRegistry& registry);
+int runStageProcess(int argc, char** argv, const std::string& role, const StageRegistry& registry);
 
 }  // namespace vslam::bus

@@ -100,8 +100,8 @@ void StageRunner::publishHealth(Entry& e, Utime now) {
   const double period_s = std::max(1e-6, toSeconds(now - e.last_health));
   const auto per_channel = e.bus->receivedPerChannel();
   for (const auto& [channel, count] : per_channel) {
-    report.add("rx_hz_" + channel, static_cast<double>(count - e.last_per_channel[channel]) / period_s,
-               "Hz");
+    report.add("rx_hz_" + channel,
+               static_cast<double>(count - e.last_per_channel[channel]) / period_s, "Hz");
   }
   e.last_per_channel = per_channel;
   e.last_health = now;

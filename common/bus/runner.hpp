@@ -4,7 +4,6 @@
 // health period.
 
 #include <lcm/lcm-cpp.hpp>
-
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,7 +13,7 @@
 namespace vslam::bus {
 
 struct RunnerOptions {
-  std::string process_name;   // e.g. "vslam-backend" or "vslam-replay"
+  std::string process_name;  // e.g. "vslam-backend" or "vslam-replay"
   std::string health_channel;
   double health_period_s = 1.0;
   double timer_period_s = 0.1;  // Stage::onTimer cadence

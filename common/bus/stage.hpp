@@ -30,14 +30,14 @@ struct HealthMetric {
 
 // What a stage reports about itself once per health period.
 struct HealthReport {
-  int level = 0;         // vslam::health_t::LEVEL_*
-  std::string message;   // why level is not OK
+  int level = 0;        // vslam::health_t::LEVEL_*
+  std::string message;  // why level is not OK
   std::vector<HealthMetric> metrics;
   void add(std::string name, double value, std::string unit = "") {
     metrics.push_back({std::move(name), value, std::move(unit)});
   }
-  void warn(const std::string& why);   // raises level to WARN and appends why
-  void fail(const std::string& why);   // raises level to ERROR and appends why
+  void warn(const std::string& why);  // raises level to WARN and appends why
+  void fail(const std::string& why);  // raises level to ERROR and appends why
 };
 
 struct StageContext {

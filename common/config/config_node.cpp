@@ -1,9 +1,9 @@
 #include "config/config_node.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
-#include <cctype>
 #include <sstream>
 
 namespace vslam::config {
@@ -38,11 +38,16 @@ size_t editDistance(const std::string& a, const std::string& b) {
 
 const char* typeName(const YAML::Node& n) {
   switch (n.Type()) {
-    case YAML::NodeType::Null: return "nothing (null)";
-    case YAML::NodeType::Scalar: return "a scalar";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a mapping";
-    default: return "undefined";
+    case YAML::NodeType::Null:
+      return "nothing (null)";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    default:
+      return "undefined";
   }
 }
 
@@ -83,7 +88,8 @@ ConfigNode ConfigNode::loadFile(const std::filesystem::path& file) {
   if (!in) throw ConfigError(file.string(), "", "cannot open the configuration file");
   std::stringstream text;
   text << in.rdbuf();
-  return loadString(text.str(), file.string(), file.parent_path().empty() ? "." : file.parent_path());
+  return loadString(text.str(), file.string(),
+                    file.parent_path().empty() ? "." : file.parent_path());
 }
 
 ConfigNode ConfigNode::loadString(const std::string& yaml, const std::string& origin,
@@ -93,12 +99,12 @@ ConfigNode ConfigNode::loadString(const std::string& yaml, const std::string& or
     root = YAML::Load(yaml);
   } catch (const YAML::Exception& e) {
     throw ConfigError(origin, "",
-                      "YAML syntax error at line " + std::to_string(e.mark.line + 1) +
-                          ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg);
+                      "YAML syntax error at line " + std::to_string(e.mark.line + 1) + ", column " +
+                          std::to_string(e.mark.column + 1) + ": " + e.msg);
   }
   if (!root.IsMap()) {
-    throw ConfigError(origin, "", std::string("expected a mapping at the top level, found ") +
-                                      typeName(root));
+    throw ConfigError(origin, "",
+                      std::string("expected a mapping at the top level, found ") + typeName(root));
   }
   auto doc = std::make_shared<Document>(Document{origin, base_dir});
   return ConfigNode(doc, root, "");
@@ -239,12 +245,11 @@ std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exis
 
 std::string ConfigNode::getChannel(const std::string& key) const {
   const std::string c = getString(key);
-  const bool upper_snake =
-      std::isupper(static_cast<unsigned char>(c[0])) &&
-      std::all_of(c.begin(), c.end(), [](char ch) {
-        return std::isupper(static_cast<unsigned char>(ch)) ||
-               std::isdigit(static_cast<unsigned char>(ch)) || ch == '_';
-      });
+  const bool upper_snake = std::isupper(static_cast<unsigned char>(c[0])) &&
+                           std::all_of(c.begin(), c.end(), [](char ch) {
+                             return std::isupper(static_cast<unsigned char>(ch)) ||
+                                    std::isdigit(static_cast<unsigned char>(ch)) || ch == '_';
+                           });
   if (!upper_snake) {
     throw error(key, "expected an LCM channel name in UPPER_SNAKE_CASE, found '" + c + "'");
   }
@@ -256,7 +261,8 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
   markUsed(key);
   const std::string what =
       "a list of " + std::to_string(expected_size) + " numbers" +
-      (std::isinf(range.min) && std::isinf(range.max) ? "" : " each " + describeRange(range).substr(2));
+      (std::isinf(range.min) && std::isinf(range.max) ? ""
+                                                      : " each " + describeRange(range).substr(2));
   if (!has(key)) throw missing(key, what);
   const YAML::Node n = node_[key];
   if (!n.IsSequence() || n.size() != expected_size) {
@@ -266,8 +272,8 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
   std::vector<double> out;
   for (size_t i = 0; i < n.size(); ++i) {
     double v = 0;
-    if (!n[i].IsScalar() || !parseDouble(n[i].Scalar(), &v) || !std::isfinite(v) ||
-        v < range.min || v > range.max) {
+    if (!n[i].IsScalar() || !parseDouble(n[i].Scalar(), &v) || !std::isfinite(v) || v < range.min ||
+        v > range.max) {
       throw error(key + "[" + std::to_string(i) + "]",
                   "expected " + describeRange(range) + ", found '" +
                       (n[i].IsScalar() ? n[i].Scalar() : typeName(n[i])) + "'");
@@ -281,7 +287,8 @@ std::vector<std::string> ConfigNode::getStrings(const std::string& key) const {
   markUsed(key);
   if (!has(key)) throw missing(key, "a list of strings");
   const YAML::Node n = node_[key];
-  if (!n.IsSequence()) throw error(key, std::string("expected a list of strings, found ") + typeName(n));
+  if (!n.IsSequence())
+    throw error(key, std::string("expected a list of strings, found ") + typeName(n));
   std::vector<std::string> out;
   for (size_t i = 0; i < n.size(); ++i) {
     if (!n[i].IsScalar() || n[i].Scalar().empty()) {

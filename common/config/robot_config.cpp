@@ -75,7 +75,8 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
   for (const ConfigNode& c : node.sequence("cameras")) {
     CameraConfig cam;
     cam.name = c.getString("name");
-    if (!names.insert(cam.name).second) throw c.error("name", "duplicate camera '" + cam.name + "'");
+    if (!names.insert(cam.name).second)
+      throw c.error("name", "duplicate camera '" + cam.name + "'");
     cam.calibration_file = c.getPath("calibration");
     readOpenCvCalibration(c, "calibration", &cam);
     cam.frame_rate_hz = c.getDouble("frame_rate_hz", InRange{0.1, 1000});
@@ -123,7 +124,8 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
   for (const auto& cam : robot.cameras) {
     for (const auto* c : {&cam.image_channel, &cam.calibration_channel}) {
       if (!channels_seen.insert(*c).second) {
-        throw node.error("cameras", "channel '" + *c + "' of camera '" + cam.name + "' is used twice");
+        throw node.error("cameras",
+                         "channel '" + *c + "' of camera '" + cam.name + "' is used twice");
       }
     }
   }
@@ -147,9 +149,9 @@ void RobotConfig::print(std::ostream& os) const {
   for (const auto& c : cameras) {
     const Eigen::Vector3d t = c.robot_T_camera.translation();
     os << "  camera " << c.name << ": " << c.width << "x" << c.height << " @ " << c.frame_rate_hz
-       << " Hz, fx=" << c.fx << " fy=" << c.fy << " cx=" << c.cx << " cy=" << c.cy
-       << ", position [" << t.x() << ", " << t.y() << ", " << t.z() << "] m, channels "
-       << c.image_channel << " " << c.calibration_channel << "\n";
+       << " Hz, fx=" << c.fx << " fy=" << c.fy << " cx=" << c.cx << " cy=" << c.cy << ", position ["
+       << t.x() << ", " << t.y() << ", " << t.z() << "] m, channels " << c.image_channel << " "
+       << c.calibration_channel << "\n";
   }
 }
 

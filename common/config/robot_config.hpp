@@ -14,12 +14,12 @@
 namespace vslam::config {
 
 struct CameraConfig {
-  std::string name;                 // e.g. "forward"
+  std::string name;  // e.g. "forward"
   std::filesystem::path calibration_file;
-  int width = 0;                    // pixels
-  int height = 0;                   // pixels
+  int width = 0;                          // pixels
+  int height = 0;                         // pixels
   double fx = 0, fy = 0, cx = 0, cy = 0;  // pixels
-  std::vector<double> distortion;   // OpenCV order k1 k2 p1 p2 [k3 ...]
+  std::vector<double> distortion;         // OpenCV order k1 k2 p1 p2 [k3 ...]
   double frame_rate_hz = 0;
   // Camera frame (OpenCV: x right, y down, z optical axis) in the robot base
   // frame (x forward, y left, z up).

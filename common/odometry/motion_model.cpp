@@ -62,12 +62,18 @@ OdometryIncrements::Outcome OdometryIncrements::add(const OdometryReading& readi
 
 const char* OdometryIncrements::describe(Outcome outcome) {
   switch (outcome) {
-    case Outcome::kFirst: return "first reading";
-    case Outcome::kStep: return "step";
-    case Outcome::kStale: return "duplicate or out-of-order reading ignored";
-    case Outcome::kInvalid: return "non-finite pose ignored";
-    case Outcome::kReset: return "odometry driver restarted; reference reset";
-    case Outcome::kImplausible: return "implausible jump; reference reset without motion";
+    case Outcome::kFirst:
+      return "first reading";
+    case Outcome::kStep:
+      return "step";
+    case Outcome::kStale:
+      return "duplicate or out-of-order reading ignored";
+    case Outcome::kInvalid:
+      return "non-finite pose ignored";
+    case Outcome::kReset:
+      return "odometry driver restarted; reference reset";
+    case Outcome::kImplausible:
+      return "implausible jump; reference reset without motion";
   }
   return "?";
 }

@@ -19,8 +19,7 @@ DeadReckonParams DeadReckonParams::load(const config::ConfigNode& node,
 }
 
 DeadReckonStage::DeadReckonStage(DeadReckonParams params)
-    : params_(std::move(params)),
-      increments_(params_.max_step_m, degToRad(params_.max_step_deg)) {}
+    : params_(std::move(params)), increments_(params_.max_step_m, degToRad(params_.max_step_deg)) {}
 
 void DeadReckonStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
@@ -40,8 +39,9 @@ void DeadReckonStage::onOdometry(const vslam::odometry_t& msg) {
     case OdometryIncrements::Outcome::kFirst:
       break;
     case OdometryIncrements::Outcome::kInvalid:
-      ctx_->bus.reportMalformed(params_.odometry_channel,
-                                "odometry seq " + std::to_string(msg.seq) + " has a non-finite pose");
+      ctx_->bus.reportMalformed(
+          params_.odometry_channel,
+          "odometry seq " + std::to_string(msg.seq) + " has a non-finite pose");
       return;
     case OdometryIncrements::Outcome::kStale:
       ++ignored_;
@@ -77,14 +77,15 @@ void DeadReckonStage::collectHealth(bus::HealthReport& report) {
   report.add("steps", static_cast<double>(period_steps_), "count");
   report.add("ignored_readings", static_cast<double>(ignored_), "count");
   report.add("distance", distance_m_, "m");
-  report.add("position_sigma", std::sqrt(estimate_.covariance()(0, 0) + estimate_.covariance()(1, 1)),
-             "m");
+  report.add("position_sigma",
+             std::sqrt(estimate_.covariance()(0, 0) + estimate_.covariance()(1, 1)), "m");
   period_steps_ = 0;
 }
 
 void registerDeadReckon(bus::StageRegistry& registry) {
   registry.add("deadreckon", [](const bus::StageSetup& setup) {
-    return std::make_unique<DeadReckonStage>(DeadReckonParams::load(setup.params, setup.stack.robot));
+    return std::make_unique<DeadReckonStage>(
+        DeadReckonParams::load(setup.params, setup.stack.robot));
   });
 }
 

@@ -16,7 +16,7 @@ struct DeadReckonParams {
   MotionNoise noise;
   std::string odometry_channel;
   std::string pose_channel;
-  double max_step_m = 1.0;    // larger jumps between readings are faults, not motion
+  double max_step_m = 1.0;  // larger jumps between readings are faults, not motion
   double max_step_deg = 90.0;
 
   static DeadReckonParams load(const config::ConfigNode& node, const config::RobotConfig& robot);

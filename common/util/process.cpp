@@ -24,7 +24,7 @@ void onStopSignal(int) {
 }  // namespace
 
 void installStopSignalHandlers() {
-  struct sigaction sa{};
+  struct sigaction sa {};
   sa.sa_handler = onStopSignal;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = 0;  // no SA_RESTART: blocking waits return early with EINTR
@@ -50,7 +50,7 @@ void tuneAllocatorForSteadyState() {
 
 ResourceUsage currentResourceUsage() {
   ResourceUsage usage;
-  struct rusage ru{};
+  struct rusage ru {};
   if (getrusage(RUSAGE_SELF, &ru) == 0) {
     usage.cpu_seconds = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
                         1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);

@@ -19,11 +19,12 @@ void usage() {
          "config/vslam.yaml)\n"
          "  --stages A,B,...     process instances to run (default: every instance whose role\n"
          "                       is a stage: "
-      << [] {
-           std::string s;
-           for (const auto& r : vslam::stages::builtinStages().roles()) s += r + " ";
-           return s;
-         }()
+      <<
+      [] {
+        std::string s;
+        for (const auto& r : vslam::stages::builtinStages().roles()) s += r + " ";
+        return s;
+      }()
       << ")\n"
          "  --channels REGEX     feed only input channels matching REGEX (default .*)\n"
          "  --no-inputs          write only what the stages publish\n"

@@ -38,7 +38,8 @@ TEST(Bus, DeliversDecodedMessagesAndCounts) {
   clock.set(5000);
   Bus bus(lcm, clock, "t");
   std::vector<int64_t> seen;
-  bus.subscribe<vslam::odometry_t>("ODO", [&](const vslam::odometry_t& m) { seen.push_back(m.seq); });
+  bus.subscribe<vslam::odometry_t>("ODO",
+                                   [&](const vslam::odometry_t& m) { seen.push_back(m.seq); });
   for (int i = 0; i < 3; ++i) bus.publish("ODO", odometry(i));
   pump(lcm);
   EXPECT_EQ(seen, (std::vector<int64_t>{0, 1, 2}));
@@ -102,9 +103,9 @@ TEST(LatestWinsWorker, LiveModeDropsStaleItemsAndEndsOnTheNewest) {
   int accepted = 0;
   for (int i = 0; i < 200; ++i) accepted += worker.post(i) ? 1 : 0;
   worker.drain();
-  EXPECT_EQ(last.load(), 199);                       // the newest always wins
-  EXPECT_LT(processed.load(), 200);                  // a slow worker skipped stale items
-  EXPECT_EQ(worker.dropped(), 200 - accepted);       // every replaced item is counted
+  EXPECT_EQ(last.load(), 199);                  // the newest always wins
+  EXPECT_LT(processed.load(), 200);             // a slow worker skipped stale items
+  EXPECT_EQ(worker.dropped(), 200 - accepted);  // every replaced item is counted
   EXPECT_EQ(processed.load() + worker.dropped(), 200);
   worker.stop();
 }
@@ -150,7 +151,8 @@ TEST(StageRunner, PublishesHealthPerStageOnSchedule) {
   runner.add("counter", std::move(stage));
   std::vector<vslam::health_t> health;
   Bus listener(lcm, clock, "listener");
-  listener.subscribe<vslam::health_t>("HEALTH", [&](const vslam::health_t& h) { health.push_back(h); });
+  listener.subscribe<vslam::health_t>("HEALTH",
+                                      [&](const vslam::health_t& h) { health.push_back(h); });
   runner.startAll();
 
   runner.tick(1'500'000);

@@ -61,8 +61,8 @@ class PoseTrailStage final : public Stage {
  public:
   void start(StageContext& ctx) override {
     ctx_ = &ctx;
-    ctx.bus.subscribe<vslam::pose_estimate_t>("POSE_ODOMETRY",
-                                              [this](const vslam::pose_estimate_t& p) { onPose(p); });
+    ctx.bus.subscribe<vslam::pose_estimate_t>(
+        "POSE_ODOMETRY", [this](const vslam::pose_estimate_t& p) { onPose(p); });
   }
   std::vector<std::string> outputChannels() const override { return {"TRAIL"}; }
 
@@ -97,7 +97,8 @@ std::unique_ptr<Stage> deadReckon() {
   return std::make_unique<stages::DeadReckonStage>(p);
 }
 
-ReplayStats replayWithTestStages(const fs::path& in, const fs::path& out, bool keep_health = false) {
+ReplayStats replayWithTestStages(const fs::path& in, const fs::path& out,
+                                 bool keep_health = false) {
   ReplayOptions opt;
   opt.input = in;
   opt.output = out;
@@ -222,7 +223,8 @@ TEST_F(LockstepReplayTest, RecordedStageOutputsAreReplacedNotFed) {
 TEST_F(LockstepReplayTest, TruncatedLogIsReplayedUpToTheDamageAndReported) {
   const std::string bytes = vslam::test::readFileBytes(input_);
   const fs::path cut = dir_ / "cut.lcmlog";
-  std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  std::ofstream(cut, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   const ReplayStats stats = replayWithTestStages(cut, dir_ / "out.lcmlog");
   EXPECT_TRUE(stats.input_truncated);
   EXPECT_GT(stats.input_bytes_unread, 0);
@@ -241,7 +243,8 @@ TEST_F(LockstepReplayTest, DamagedEventInTheMiddleIsSkippedAndCounted) {
   ASSERT_NE(at, std::string::npos);
   for (size_t i = at; i < at + 24; ++i) bytes[i] = '\x5a';
   const fs::path damaged = dir_ / "damaged.lcmlog";
-  std::ofstream(damaged, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(damaged, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   const ReplayStats stats = replayWithTestStages(damaged, dir_ / "out.lcmlog");
   EXPECT_GE(stats.events_missing, 1);
   EXPECT_EQ(stats.events_read + stats.events_missing, 1103);  // everything else was replayed
@@ -253,9 +256,15 @@ TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
   const std::string cfg = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
   std::string log1, log2;
   ASSERT_EQ(runCommand(bin + " " + input_.string() + " --config " + cfg + " --out " +
-                           (dir_ / "r1.lcmlog").string(), &log1), 0) << log1;
+                           (dir_ / "r1.lcmlog").string(),
+                       &log1),
+            0)
+      << log1;
   ASSERT_EQ(runCommand(bin + " " + input_.string() + " --config " + cfg + " --out " +
-                           (dir_ / "r2.lcmlog").string(), &log2), 0) << log2;
+                           (dir_ / "r2.lcmlog").string(),
+                       &log2),
+            0)
+      << log2;
   EXPECT_NE(log1.find("stage deadreckon"), std::string::npos) << log1;
   const std::string a = vslam::test::readFileBytes(dir_ / "r1.lcmlog");
   EXPECT_TRUE(a == vslam::test::readFileBytes(dir_ / "r2.lcmlog"));
@@ -265,15 +274,19 @@ TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
 
   std::string err;
   EXPECT_EQ(runCommand(bin + " /nonexistent.lcmlog --config " + cfg + " --out " +
-                           (dir_ / "x.lcmlog").string(), &err), 1);
+                           (dir_ / "x.lcmlog").string(),
+                       &err),
+            1);
   EXPECT_NE(err.find("cannot open input log /nonexistent.lcmlog"), std::string::npos) << err;
 
   const std::string bytes = vslam::test::readFileBytes(input_);
   std::ofstream(dir_ / "cut.lcmlog", std::ios::binary)
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 3 / 4));
   err.clear();
-  EXPECT_EQ(runCommand(bin + " " + (dir_ / "cut.lcmlog").string() + " --config " + cfg +
-                           " --out " + (dir_ / "cut_out.lcmlog").string(), &err), 1);
+  EXPECT_EQ(runCommand(bin + " " + (dir_ / "cut.lcmlog").string() + " --config " + cfg + " --out " +
+                           (dir_ / "cut_out.lcmlog").string(),
+                       &err),
+            1);
   EXPECT_NE(err.find("not a complete event"), std::string::npos) << err;
   EXPECT_FALSE(readLog(dir_ / "cut_out.lcmlog").empty());  // what was replayed is kept
 }

@@ -100,8 +100,8 @@ std::string readFileBytes(const std::filesystem::path& file) {
 }
 
 std::filesystem::path scratchDir(const std::string& tag) {
-  auto dir = std::filesystem::temp_directory_path() /
-             ("vslam_" + tag + "_" + std::to_string(::getpid()));
+  auto dir =
+      std::filesystem::temp_directory_path() / ("vslam_" + tag + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -2,9 +2,8 @@
 // Test fixtures: small LCM logs written with lcm::LogFile, and helpers to read
 // them back. Test data only; no estimator sees it outside tests.
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <filesystem>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <vector>
 

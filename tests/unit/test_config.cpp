@@ -1,11 +1,11 @@
 // Configuration: every way a config can be wrong stops with a message naming
 // the file, the key and what was expected.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sys/wait.h>
 
 #include "config/config_node.hpp"
 #include "config/robot_config.hpp"
@@ -33,16 +33,14 @@ void expectConfigError(Fn fn, const std::string& key, const std::string& problem
 ConfigNode yaml(const std::string& text) { return ConfigNode::loadString(text, "test.yaml"); }
 
 fs::path tempDir() {
-  fs::path dir = fs::temp_directory_path() /
-                 ("vslam_test_config_" + std::to_string(::getpid()) + "_" +
-                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  fs::path dir =
+      fs::temp_directory_path() / ("vslam_test_config_" + std::to_string(::getpid()) + "_" +
+                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
   fs::create_directories(dir);
   return dir;
 }
 
-void writeFile(const fs::path& p, const std::string& text) {
-  std::ofstream(p) << text;
-}
+void writeFile(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 
 }  // namespace
 
@@ -60,8 +58,11 @@ TEST(ConfigNode, ReadsTypedValues) {
 TEST(ConfigNode, MissingKeyNamesKeyAndExpectation) {
   const ConfigNode n = yaml("outer:\n  present: 1\n");
   const ConfigNode outer = n.child("outer");
-  expectConfigError([&] { outer.getDouble("absent", InRange{0, 10}); }, "outer.absent",
-                    "missing (expected a number in [0, 10])");
+  expectConfigError(
+      [&] {
+        outer.getDouble("absent", InRange{0, 10});
+      },
+      "outer.absent", "missing (expected a number in [0, 10])");
 }
 
 TEST(ConfigNode, MissingRequiredKeyNamesTheMisspeltOne) {
@@ -111,8 +112,11 @@ TEST(ConfigNode, ChannelNamesMustBeUpperSnake) {
 
 TEST(ConfigNode, EnumListsAllowedWords) {
   const ConfigNode n = yaml("mode: sideways\n");
-  expectConfigError([&] { n.getEnum("mode", {"waypoints", "random"}); }, "mode",
-                    "expected one of: waypoints, random; found 'sideways'");
+  expectConfigError(
+      [&] {
+        n.getEnum("mode", {"waypoints", "random"});
+      },
+      "mode", "expected one of: waypoints, random; found 'sideways'");
 }
 
 TEST(ConfigNode, SyntaxErrorAndMissingFile) {
@@ -143,8 +147,8 @@ TEST(ConfigNode, PathsResolveRelativeToTheFile) {
 }
 
 TEST(RobotConfig, ShippedRobotFileLoads) {
-  const auto robot =
-      vslam::config::RobotConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml");
+  const auto robot = vslam::config::RobotConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) /
+                                                          "config/robot/sim_two_camera.yaml");
   ASSERT_EQ(robot.cameras.size(), 2u);
   const auto& fwd = robot.camera("forward");
   EXPECT_EQ(fwd.width, 320);
@@ -182,9 +186,9 @@ TEST(RobotConfig, BadCalibrationAndDuplicatesAreRejected) {
   std::string channels = "channels:\n";
   for (const char* k :
        {"odometry", "ground_truth", "health", "pose_estimate", "pose_odometry",
-        "visual_measurement", "visual_measurement_filtered", "landmark_proposal",
-        "landmark_update", "landmark_summary", "landmark_request", "map", "particles",
-        "appearance_hypotheses", "appearance_map", "appearance_event"}) {
+        "visual_measurement", "visual_measurement_filtered", "landmark_proposal", "landmark_update",
+        "landmark_summary", "landmark_request", "map", "particles", "appearance_hypotheses",
+        "appearance_map", "appearance_event"}) {
     std::string upper = k;
     for (auto& ch : upper) ch = static_cast<char>(std::toupper(ch));
     channels += std::string("  ") + k + ": " + upper + "\n";
@@ -197,9 +201,10 @@ TEST(RobotConfig, BadCalibrationAndDuplicatesAreRejected) {
     EXPECT_NE(std::string(e.what()).find("camera_matrix must be a 3x3"), std::string::npos)
         << e.what();
   }
-  writeFile(dir / "cal.yml",
-            "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\ncamera_matrix: !!opencv-matrix\n"
-            "   rows: 3\n   cols: 3\n   dt: d\n   data: [200., 0., 160., 0., 200., 120., 0., 0., 1.]\n");
+  writeFile(
+      dir / "cal.yml",
+      "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\ncamera_matrix: !!opencv-matrix\n"
+      "   rows: 3\n   cols: 3\n   dt: d\n   data: [200., 0., 160., 0., 200., 120., 0., 0., 1.]\n");
   writeFile(dir / "robot.yaml", "name: r\ncameras:\n" + camera + camera + channels);
   expectConfigError([&] { vslam::config::RobotConfig::loadFile(dir / "robot.yaml"); },
                     "cameras[1].name", "duplicate camera 'forward'");
