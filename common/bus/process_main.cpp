@@ -95,11 +95,19 @@ int runStageProcess(int argc, char** argv, const std::string& role, const StageR
     log::error("cannot start: ", e.what());
     return kExitFailure;
   }
+  // The parameters as the stage read them, defaults marked.
+  const auto params = stack->root.resolvedValues("processes." + args.instance + ".");
   if (args.print_config) {
     stack->robot.print(std::cout);
     std::cout << "instance " << args.instance << " (role " << role << ") from " << args.config_file
-              << "\n";
+              << ":\n";
+    for (const auto& p : params) {
+      std::cout << "  " << p.key << " = " << p.value << (p.is_default ? "  (default)" : "") << "\n";
+    }
     return kExitOk;
+  }
+  for (const auto& p : params) {
+    log::info("parameter ", p.key, " = ", p.value, p.is_default ? " (default)" : "");
   }
 
   const std::string url = config::resolveLcmUrl(args.lcm_url, stack->lcm_url);

@@ -106,7 +106,7 @@ ConfigNode ConfigNode::loadString(const std::string& yaml, const std::string& or
     throw ConfigError(origin, "",
                       std::string("expected a mapping at the top level, found ") + typeName(root));
   }
-  auto doc = std::make_shared<Document>(Document{origin, base_dir});
+  auto doc = std::make_shared<Document>(Document{origin, base_dir, {}});
   return ConfigNode(doc, root, "");
 }
 
@@ -190,7 +190,7 @@ double ConfigNode::getDouble(const std::string& key, InRange range) const {
     os << "expected " << describeRange(range) << ", found " << v;
     throw error(key, os.str());
   }
-  return v;
+  return record(key, v, false);
 }
 
 int64_t ConfigNode::getInt(const std::string& key, InRange range) const {
@@ -203,7 +203,7 @@ int64_t ConfigNode::getInt(const std::string& key, InRange range) const {
   if (v < range.min || v > range.max) {
     throw error(key, "expected " + what + ", found " + n.Scalar());
   }
-  return static_cast<int64_t>(v);
+  return record(key, static_cast<int64_t>(v), false);
 }
 
 bool ConfigNode::getBool(const std::string& key) const {
@@ -212,13 +212,13 @@ bool ConfigNode::getBool(const std::string& key) const {
   if (n.Tag() == "!" || !parseBool(n.Scalar(), &v)) {
     throw error(key, "expected true or false, found '" + n.Scalar() + "'");
   }
-  return v;
+  return record(key, v, false);
 }
 
 std::string ConfigNode::getString(const std::string& key, bool allow_empty) const {
   const YAML::Node n = scalar(key, "a string");
   if (!allow_empty && n.Scalar().empty()) throw error(key, "expected a non-empty string");
-  return n.Scalar();
+  return record(key, n.Scalar(), false);
 }
 
 std::string ConfigNode::getEnum(const std::string& key,
@@ -240,6 +240,7 @@ std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exis
   if (must_exist && !std::filesystem::exists(p)) {
     throw error(key, "file '" + raw + "' not found (looked for " + p.string() + ")");
   }
+  record(key, p.string(), false);
   return p;
 }
 
@@ -280,6 +281,9 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
     }
     out.push_back(v);
   }
+  std::ostringstream text;
+  for (size_t i = 0; i < out.size(); ++i) text << (i ? ", " : "[") << out[i];
+  record(key, text.str() + "]", false);
   return out;
 }
 
@@ -302,7 +306,7 @@ std::vector<std::string> ConfigNode::getStrings(const std::string& key) const {
 double ConfigNode::getDouble(const std::string& key, double fallback, InRange range) const {
   if (!has(key)) {
     markUsed(key);
-    return fallback;
+    return record(key, fallback, true);
   }
   return getDouble(key, range);
 }
@@ -310,7 +314,7 @@ double ConfigNode::getDouble(const std::string& key, double fallback, InRange ra
 int64_t ConfigNode::getInt(const std::string& key, int64_t fallback, InRange range) const {
   if (!has(key)) {
     markUsed(key);
-    return fallback;
+    return record(key, fallback, true);
   }
   return getInt(key, range);
 }
@@ -318,7 +322,7 @@ int64_t ConfigNode::getInt(const std::string& key, int64_t fallback, InRange ran
 bool ConfigNode::getBool(const std::string& key, bool fallback) const {
   if (!has(key)) {
     markUsed(key);
-    return fallback;
+    return record(key, fallback, true);
   }
   return getBool(key);
 }
@@ -326,9 +330,31 @@ bool ConfigNode::getBool(const std::string& key, bool fallback) const {
 std::string ConfigNode::getString(const std::string& key, const std::string& fallback) const {
   if (!has(key)) {
     markUsed(key);
-    return fallback;
+    return record(key, fallback, true);
   }
   return getString(key);
+}
+
+template <class T>
+T ConfigNode::record(const std::string& key, T value, bool is_default) const {
+  std::ostringstream text;
+  if constexpr (std::is_same_v<T, bool>) {
+    text << (value ? "true" : "false");
+  } else {
+    text << value;
+  }
+  doc_->resolved.push_back({childPath(key), text.str(), is_default});
+  return value;
+}
+
+std::vector<ResolvedValue> ConfigNode::resolvedValues(const std::string& prefix) const {
+  // A key read more than once (e.g. `role`) is listed once, at its first read.
+  std::vector<ResolvedValue> out;
+  std::set<std::string> seen;
+  for (const auto& r : doc_->resolved) {
+    if (r.key.rfind(prefix, 0) == 0 && seen.insert(r.key).second) out.push_back(r);
+  }
+  return out;
 }
 
 void ConfigNode::requireAllKeysUsed() const {

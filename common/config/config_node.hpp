@@ -43,6 +43,13 @@ struct InRange {
 inline InRange positive() { return {std::numeric_limits<double>::min(), InRange{}.max}; }
 inline InRange nonNegative() { return {0.0, InRange{}.max}; }
 
+// A value a parameter struct read, as printed at start-up.
+struct ResolvedValue {
+  std::string key;    // full key path, e.g. processes.deadreckon.sigma_rotation
+  std::string value;  // as text
+  bool is_default;    // the key was absent and the documented default applied
+};
+
 class ConfigNode {
  public:
   // Parses a YAML file; a missing file or a syntax error is a ConfigError.
@@ -95,6 +102,10 @@ class ConfigNode {
   // the closest known key.
   void requireAllKeysUsed() const;
 
+  // Every value read so far from this document whose key path starts with
+  // `prefix`, with defaults marked: what a process prints at start-up.
+  std::vector<ResolvedValue> resolvedValues(const std::string& prefix = "") const;
+
   // Builds an error about `key` of this node.
   ConfigError error(const std::string& key, const std::string& problem) const;
 
@@ -102,7 +113,11 @@ class ConfigNode {
   struct Document {
     std::string file;
     std::filesystem::path base_dir;
+    // Every value read, in order, for printing the effective parameters.
+    mutable std::vector<ResolvedValue> resolved;
   };
+  template <class T>
+  T record(const std::string& key, T value, bool is_default) const;
   ConfigNode(std::shared_ptr<const Document> doc, YAML::Node node, std::string path);
   YAML::Node scalar(const std::string& key, const char* what) const;
   ConfigError missing(const std::string& key, const std::string& what) const;

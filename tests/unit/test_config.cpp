@@ -243,3 +243,21 @@ TEST(ProcessConfig, MisspeltKeyExitsTwoNamingTheKey) {
   EXPECT_NE(out.find((dir / "bad.yaml").string()), std::string::npos) << out;
   fs::remove_all(dir);
 }
+
+TEST(ConfigNode, ResolvedValuesListWhatWasReadWithDefaultsMarked) {
+  const ConfigNode n = yaml("block:\n  a: 2.5\n  flag: false\n");
+  const ConfigNode b = n.child("block");
+  b.getDouble("a");
+  b.getBool("flag");
+  b.getInt("count", 7, InRange{0, 10});
+  const auto values = n.resolvedValues("block.");
+  ASSERT_EQ(values.size(), 3u);
+  EXPECT_EQ(values[0].key, "block.a");
+  EXPECT_EQ(values[0].value, "2.5");
+  EXPECT_FALSE(values[0].is_default);
+  EXPECT_EQ(values[1].value, "false");
+  EXPECT_EQ(values[2].key, "block.count");
+  EXPECT_EQ(values[2].value, "7");
+  EXPECT_TRUE(values[2].is_default);
+  EXPECT_TRUE(n.resolvedValues("other.").empty());
+}
