@@ -10,7 +10,6 @@
 #include <cstdint>
 #include <string>
 #include <vector>
-
 #include <vslam/appearance_event_t.hpp>
 #include <vslam/appearance_hypotheses_t.hpp>
 #include <vslam/appearance_hypothesis_t.hpp>
@@ -38,14 +37,14 @@ namespace vslam::transport_test {
 
 // Every generated vslam type; keep in sync with lcmtypes/ (the round-trip test
 // checks that this list and the .lcm files name the same types).
-#define VSLAM_TRANSPORT_ALL_TYPES                                                              \
-  vslam::image_t, vslam::camera_calibration_t, vslam::odometry_t, vslam::visual_measurement_t, \
-      vslam::landmark_t, vslam::landmark_update_t, vslam::landmark_summary_t,                  \
-      vslam::landmark_request_t, vslam::pose_estimate_t, vslam::landmark_pose_t,               \
-      vslam::map_t, vslam::particle_t, vslam::particle_set_t, vslam::appearance_state_t,       \
-      vslam::appearance_link_t, vslam::appearance_hypothesis_t,                                \
-      vslam::appearance_hypotheses_t, vslam::appearance_map_t, vslam::appearance_event_t,      \
-      vslam::health_metric_t, vslam::health_t, vslam::ground_truth_pose_t
+#define VSLAM_TRANSPORT_ALL_TYPES                                                                  \
+  vslam::image_t, vslam::camera_calibration_t, vslam::odometry_t, vslam::visual_measurement_t,     \
+      vslam::landmark_t, vslam::landmark_update_t, vslam::landmark_summary_t,                      \
+      vslam::landmark_request_t, vslam::pose_estimate_t, vslam::landmark_pose_t, vslam::map_t,     \
+      vslam::particle_t, vslam::particle_set_t, vslam::appearance_state_t,                         \
+      vslam::appearance_link_t, vslam::appearance_hypothesis_t, vslam::appearance_hypotheses_t,    \
+      vslam::appearance_map_t, vslam::appearance_event_t, vslam::health_metric_t, vslam::health_t, \
+      vslam::ground_truth_pose_t
 
 template <class... Ts>
 struct TypeList {};
@@ -66,7 +65,9 @@ void forEachType(TypeList<Ts...>, F&& f) {
 inline double dv(int seed, int k) { return (seed + 1) * 1.5 + k * 0.25 - 7.0 / (k + 3); }
 inline float fv(int seed, int k) { return static_cast<float>(dv(seed, k) * 0.5); }
 inline int64_t tv(int seed, int k) { return 1700000000000000LL + seed * 1000003LL + k * 17; }
-inline std::string sv(const char* base, int seed) { return std::string(base) + "_" + std::to_string(seed); }
+inline std::string sv(const char* base, int seed) {
+  return std::string(base) + "_" + std::to_string(seed);
+}
 inline uint8_t bv(int seed, int k) { return static_cast<uint8_t>(k * 31 + seed * 7 + 3); }
 // An array length that depends on the seed, never 0.
 inline int nv(int seed, int base) { return base + seed % 4; }
@@ -152,7 +153,8 @@ inline void fill(vslam::landmark_t& m, int s) {
   for (size_t i = 0; i < n; ++i) {
     const int k = static_cast<int>(i);
     for (int j = 0; j < 3; ++j) m.points[i][static_cast<size_t>(j)] = fv(s, 10 * k + j);
-    for (int j = 0; j < 2; ++j) m.keypoints[i][static_cast<size_t>(j)] = fv(s, 10 * k + 5 + j) * 0.01f;
+    for (int j = 0; j < 2; ++j)
+      m.keypoints[i][static_cast<size_t>(j)] = fv(s, 10 * k + 5 + j) * 0.01f;
     m.scales[i] = 1.5f + static_cast<float>(k);
     m.orientations[i] = -3.0f + 0.25f * static_cast<float>(k);
     for (size_t j = 0; j < m.descriptors[i].size(); ++j) {

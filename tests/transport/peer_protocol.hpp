@@ -41,7 +41,8 @@ inline std::vector<Outgoing> mixedSequence(int rounds) {
     int k = 0;
     forEachType(AllTypes{}, [&](auto tag) {
       using T = typename decltype(tag)::type;
-      out.push_back({mixedChannel(T::getTypeName()), encodeToBytes(filled<T>(r * 100 + k)), tick++});
+      out.push_back(
+          {mixedChannel(T::getTypeName()), encodeToBytes(filled<T>(r * 100 + k)), tick++});
       ++k;
     });
   }

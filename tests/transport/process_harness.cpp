@@ -150,7 +150,8 @@ void Child::kill() {
 std::string describeStatus(int st) {
   if (WIFEXITED(st)) return "exited with code " + std::to_string(WEXITSTATUS(st));
   if (WIFSIGNALED(st)) {
-    return "killed by signal " + std::to_string(WTERMSIG(st)) + " (" + strsignal(WTERMSIG(st)) + ")";
+    return "killed by signal " + std::to_string(WTERMSIG(st)) + " (" + strsignal(WTERMSIG(st)) +
+           ")";
   }
   return "wait status " + std::to_string(st);
 }
@@ -176,10 +177,11 @@ bool enterFreshNetns() {
   waitpid(probe, &st, 0);
   if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
     const int err = WIFEXITED(st) ? WEXITSTATUS(st) : 0;
-    skipCurrentTest(std::string("cannot create a private network namespace: unshare(CLONE_NEWNET): ") +
-                    (err ? std::strerror(err) : describeStatus(st)) +
-                    " (needs root or CAP_SYS_ADMIN); multicast tests are not run outside one so "
-                    "that they cannot disturb, or be disturbed by, other LCM traffic");
+    skipCurrentTest(
+        std::string("cannot create a private network namespace: unshare(CLONE_NEWNET): ") +
+        (err ? std::strerror(err) : describeStatus(st)) +
+        " (needs root or CAP_SYS_ADMIN); multicast tests are not run outside one so "
+        "that they cannot disturb, or be disturbed by, other LCM traffic");
     return false;
   }
 
@@ -201,12 +203,11 @@ bool enterFreshNetns() {
       std::to_string(kNetnsSetupFailed) + "; }; exec \"$@\"";
   const std::string ip_dir = std::filesystem::path(findInPath("ip")).parent_path().string();
   const char* path_env = std::getenv("PATH");
-  Child inner = Child::spawn({"unshare", "--net", "sh", "-c", script, "sh", self,
-                              "--gtest_filter=" + test_name},
-                             {{kNetnsEnv, "1"},
-                              {kResultEnv, result_file},
-                              {"PATH", std::string(path_env ? path_env : "/usr/bin:/bin") + ":" +
-                                           ip_dir}});
+  Child inner = Child::spawn(
+      {"unshare", "--net", "sh", "-c", script, "sh", self, "--gtest_filter=" + test_name},
+      {{kNetnsEnv, "1"},
+       {kResultEnv, result_file},
+       {"PATH", std::string(path_env ? path_env : "/usr/bin:/bin") + ":" + ip_dir}});
   if (!inner.valid()) {
     ADD_FAILURE() << "fork failed: " << std::strerror(errno);
     return false;
@@ -250,7 +251,8 @@ TestBus::TestBus(const std::string& url) : lcm_(std::make_unique<lcm::LCM>(url))
     if (auto_ack_) lcm_->publish(kAckChannel, data, static_cast<unsigned>(size));
   });
   subscribe(kDoneChannel, [this](const std::string&, const uint8_t* data, size_t size) {
-    done_counts_.push_back(std::atoi(std::string(reinterpret_cast<const char*>(data), size).c_str()));
+    done_counts_.push_back(
+        std::atoi(std::string(reinterpret_cast<const char*>(data), size).c_str()));
   });
 }
 
@@ -259,7 +261,7 @@ TestBus::~TestBus() = default;
 void TestBus::subscribe(const std::string& channel_regex, RawHandler handler, int queue_capacity) {
   auto h = std::make_unique<Handler>();
   h->fn = std::move(handler);
-  lcm::Subscription* sub = lcm_->subscribe(channel_regex, &Handler::onMessage, h.get());
+  lcm::Subscription* sub = lcm_->subscribeFunction(channel_regex, &Handler::onMessage, h.get());
   if (sub) sub->setQueueCapacity(queue_capacity);
   handlers_.push_back(std::move(h));
 }
@@ -276,7 +278,8 @@ void TestBus::record(const std::string& channel_regex, int queue_capacity) {
 bool TestBus::spinUntil(const std::function<bool()>& pred, double timeout_s) {
   const auto deadline = SteadyClock::now() + std::chrono::duration<double>(timeout_s);
   while (!pred()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - SteadyClock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - SteadyClock::now());
     if (left.count() <= 0) return pred();
     lcm_->handleTimeout(static_cast<int>(std::min<int64_t>(left.count(), 20)));
   }

@@ -12,10 +12,10 @@
 //    handshake, and spins handle() until a condition holds or a timeout.
 
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 #include <sys/types.h>
 
 #include <functional>
+#include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <optional>
 #include <string>
@@ -68,9 +68,9 @@ bool insideTestNetns();
 // outcome, returns false (the caller returns). Inside: returns true.
 bool enterFreshNetns();
 
-#define VSLAM_IN_FRESH_NETNS()                                  \
-  do {                                                          \
-    if (!::vslam::transport_test::enterFreshNetns()) return;    \
+#define VSLAM_IN_FRESH_NETNS()                               \
+  do {                                                       \
+    if (!::vslam::transport_test::enterFreshNetns()) return; \
   } while (0)
 
 // Fixture for namespace tests: in the inner run, writes the outcome for the
@@ -89,7 +89,8 @@ struct ReceivedMessage {
 
 class TestBus {
  public:
-  using RawHandler = std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
+  using RawHandler =
+      std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
 
   explicit TestBus(const std::string& url);
   ~TestBus();
@@ -122,10 +123,14 @@ class TestBus {
   }
 
  private:
+  // Subscribed with subscribeFunction (a plain function and a context): GCC 12
+  // with -fsanitize=undefined miscompiles LCM 1.3.1's member-function
+  // subscribe (its cb_func calls the handler with this == nullptr).
   struct Handler {
     RawHandler fn;
-    void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-      fn(channel, static_cast<const uint8_t*>(rbuf->data), rbuf->data_size);
+    static void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
+                          Handler* self) {
+      self->fn(channel, static_cast<const uint8_t*>(rbuf->data), rbuf->data_size);
     }
   };
   std::unique_ptr<lcm::LCM> lcm_;

@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <string>
 #include <vector>
-
 #include <vslam/image_t.hpp>
 
 #include "config/stack_config.hpp"
@@ -28,11 +27,11 @@ constexpr const char* kChannel = "CAM_TEST_IMAGE";
 
 struct StreamResult {
   int received = 0;
-  int intact = 0;            // carried exactly the pattern of their seq
-  int out_of_order = 0;      // seq not above the previous one
+  int intact = 0;        // carried exactly the pattern of their seq
+  int out_of_order = 0;  // seq not above the previous one
   int undecodable = 0;
   std::vector<int64_t> seqs;
-  int peer_published = -1;   // from the peer's DONE
+  int peer_published = -1;  // from the peer's DONE
   bool peer_ok = false;
   std::string peer_status;
 };
@@ -86,8 +85,8 @@ TEST_F(NoLoss, DefaultUrlCarries30HzVgaFramesWithoutLoss) {
   const StreamResult r = streamFrames(url);
   ASSERT_TRUE(r.peer_ok) << "image publisher " << r.peer_status;
   EXPECT_EQ(r.peer_published, kFrames) << "frames the publisher sent";
-  std::printf("[ no loss ] %s: %d/%d frames received, %d intact\n", url.c_str(), r.received, kFrames,
-              r.intact);
+  std::printf("[ no loss ] %s: %d/%d frames received, %d intact\n", url.c_str(), r.received,
+              kFrames, r.intact);
   RecordProperty("frames_received", r.received);
   EXPECT_EQ(r.received, kFrames);
   EXPECT_EQ(r.undecodable, 0);
@@ -107,15 +106,16 @@ TEST_F(NoLoss, KernelDefaultBufferLossIsReported) {
   const auto opt = url.find("&recv_buf_size=");
   ASSERT_NE(opt, std::string::npos) << url;
   url.erase(opt, url.find('&', opt + 1) == std::string::npos ? std::string::npos
-                                                              : url.find('&', opt + 1) - opt);
+                                                             : url.find('&', opt + 1) - opt);
   ASSERT_EQ(url.find("recv_buf_size"), std::string::npos) << url;
   const StreamResult r = streamFrames(url);
   ASSERT_TRUE(r.peer_ok) << "image publisher " << r.peer_status;
   const int lost = kFrames - r.received;
-  std::printf("[ kernel default buffer ] %s: %d/%d frames received, %d lost (%.1f %%), "
-              "%d out of order, %d with wrong content (not asserted)\n",
-              url.c_str(), r.received, kFrames, lost, 100.0 * lost / kFrames, r.out_of_order,
-              r.received - r.intact - r.undecodable);
+  std::printf(
+      "[ kernel default buffer ] %s: %d/%d frames received, %d lost (%.1f %%), "
+      "%d out of order, %d with wrong content (not asserted)\n",
+      url.c_str(), r.received, kFrames, lost, 100.0 * lost / kFrames, r.out_of_order,
+      r.received - r.intact - r.undecodable);
   RecordProperty("frames_received", r.received);
   RecordProperty("frames_lost", lost);
   // What does arrive is still whole and correct (LCM drops incomplete messages).

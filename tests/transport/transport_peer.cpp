@@ -4,13 +4,13 @@
 //   vslam-transport-peer mixed  URL ROUNDS HZ      every vslam type, ROUNDS times
 //   vslam-transport-peer drive  URL N HZ           N odometry_t of a straight 1 m drive on ODOMETRY
 //   vslam-transport-peer images URL N HZ W H CHAN  N gray8 W x H image_t with a per-frame pattern
-//   vslam-transport-peer run    URL                the record/replay run (odometry, ground truth, images)
+//   vslam-transport-peer run    URL                the record/replay run (odometry, ground truth,
+//   images)
 //
 // Every mode first waits for the test's ACK to its HELLO (see peer_protocol.hpp),
 // publishes at a fixed rate against absolute deadlines, then publishes DONE.
 // Exit codes: 0 done, 2 usage or LCM error, 3 no handshake.
 
-#include <lcm/lcm-cpp.hpp>
 #include <sys/prctl.h>
 #include <unistd.h>
 
@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <thread>
 #include <vector>
@@ -32,15 +33,18 @@ namespace {
 struct AckWaiter {
   std::string token;
   bool acked = false;
-  void onAck(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-    if (std::string(static_cast<const char*>(rbuf->data), rbuf->data_size) == token) acked = true;
+  // A plain function, not a member: see TestBus::Handler (process_harness.hpp).
+  static void onAck(const lcm::ReceiveBuffer* rbuf, const std::string&, AckWaiter* self) {
+    if (std::string(static_cast<const char*>(rbuf->data), rbuf->data_size) == self->token) {
+      self->acked = true;
+    }
   }
 };
 
 bool handshake(lcm::LCM& lcm, double timeout_s) {
   AckWaiter waiter;
   waiter.token = "hello-" + std::to_string(getpid());
-  lcm::Subscription* sub = lcm.subscribe(tt::kAckChannel, &AckWaiter::onAck, &waiter);
+  lcm::Subscription* sub = lcm.subscribeFunction(tt::kAckChannel, &AckWaiter::onAck, &waiter);
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   while (!waiter.acked && Clock::now() < deadline) {
     lcm.publish(tt::kHelloChannel, waiter.token.data(), static_cast<unsigned>(waiter.token.size()));
@@ -120,7 +124,8 @@ int main(int argc, char** argv) {
       img.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
       std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                 std::chrono::duration<double>(i / hz)));
-      if (lcm.publish(channel, buffer.data(), static_cast<unsigned>(buffer.size())) == 0) ++published;
+      if (lcm.publish(channel, buffer.data(), static_cast<unsigned>(buffer.size())) == 0)
+        ++published;
     }
   } else if (mode == "run" && argc == 3) {
     published = publishPaced(lcm, tt::recordRunSequence(), tt::kRunHz);
