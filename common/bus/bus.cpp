@@ -17,7 +17,15 @@ Bus::~Bus() {
 
 void Bus::add(std::unique_ptr<Subscription> sub, int queue_capacity) {
   sub->bus = this;
-  sub->lcm_subscription = lcm_.subscribe(sub->channel, &Subscription::onRaw, sub.get());
+  // subscribeFunction, not the member-function subscribe: with GCC 12 and
+  // -fsanitize=undefined, LCM 1.3.1's member-function trampoline calls the
+  // handler on a null object.
+  sub->lcm_subscription = lcm_.subscribeFunction(
+      sub->channel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string& channel, Subscription* self) {
+        self->onRaw(rbuf, channel);
+      },
+      sub.get());
   if (sub->lcm_subscription && queue_capacity > 0) {
     sub->lcm_subscription->setQueueCapacity(queue_capacity);
   }

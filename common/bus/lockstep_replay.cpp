@@ -83,7 +83,12 @@ ReplayStats LockstepReplay::run() {
     out_ = std::make_unique<lcm::LogFile>(options_.output.string(), "w");
     if (!out_->good()) throw std::runtime_error("cannot create " + options_.output.string());
   }
-  lcm_->subscribe(".*", &LockstepReplay::onAnyMessage, this);
+  lcm_->subscribeFunction(
+      ".*",
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string& channel, LockstepReplay* self) {
+        self->onAnyMessage(rbuf, channel);
+      },
+      this);
 
   // Re-running a stage replaces its recorded output instead of mixing with it.
   const auto outputs = runner_->outputChannels();
