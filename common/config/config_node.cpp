@@ -71,11 +71,13 @@ bool parseDouble(const std::string& s, double* out) {
 
 }  // namespace
 
-ConfigError::ConfigError(std::string file, std::string key, std::string problem)
-    : std::runtime_error(file + ": " + (key.empty() ? std::string() : key + ": ") + problem),
+ConfigError::ConfigError(std::string file, std::string key, std::string problem, int line)
+    : std::runtime_error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " +
+                         (key.empty() ? std::string() : key + ": ") + problem),
       file_(std::move(file)),
       key_(std::move(key)),
-      problem_(std::move(problem)) {}
+      problem_(std::move(problem)),
+      line_(line) {}
 
 ConfigNode::ConfigNode(std::shared_ptr<const Document> doc, YAML::Node node, std::string path)
     : doc_(std::move(doc)),
@@ -115,7 +117,28 @@ std::string ConfigNode::childPath(const std::string& key) const {
 }
 
 ConfigError ConfigNode::error(const std::string& key, const std::string& problem) const {
-  return ConfigError(doc_->file, childPath(key), problem);
+  return ConfigError(doc_->file, childPath(key), problem, lineOf(key));
+}
+
+int ConfigNode::lineOf(const std::string& key) const {
+  // "name[3]" refers to the 4th element of the list under "name".
+  std::string base = key;
+  int index = -1;
+  if (const auto open = key.find('['); open != std::string::npos && key.back() == ']') {
+    base = key.substr(0, open);
+    index = std::atoi(key.c_str() + open + 1);
+  }
+  if (node_.IsMap()) {
+    for (const auto& kv : node_) {
+      if (kv.first.Scalar() != base) continue;
+      if (index >= 0 && kv.second.IsSequence() && index < static_cast<int>(kv.second.size())) {
+        return kv.second[static_cast<size_t>(index)].Mark().line + 1;
+      }
+      return kv.first.Mark().line + 1;
+    }
+  }
+  // Not present: the line of the mapping it belongs in.
+  return node_.Mark().line >= 0 ? node_.Mark().line + 1 : 0;
 }
 
 bool ConfigNode::has(const std::string& key) const {

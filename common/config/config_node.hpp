@@ -26,13 +26,16 @@ namespace vslam::config {
 
 class ConfigError : public std::runtime_error {
  public:
-  ConfigError(std::string file, std::string key, std::string problem);
+  // line: 1-based line of the offending key in `file`, 0 if unknown.
+  ConfigError(std::string file, std::string key, std::string problem, int line = 0);
   const std::string& file() const { return file_; }
+  int line() const { return line_; }
   const std::string& key() const { return key_; }
   const std::string& problem() const { return problem_; }
 
  private:
   std::string file_, key_, problem_;
+  int line_ = 0;
 };
 
 // Closed interval check for numbers; open ends with +-infinity.
@@ -121,6 +124,7 @@ class ConfigNode {
   ConfigNode(std::shared_ptr<const Document> doc, YAML::Node node, std::string path);
   YAML::Node scalar(const std::string& key, const char* what) const;
   ConfigError missing(const std::string& key, const std::string& what) const;
+  int lineOf(const std::string& key) const;
   std::string childPath(const std::string& key) const;
 
   std::shared_ptr<const Document> doc_;

@@ -65,6 +65,31 @@ TEST(ConfigNode, MissingKeyNamesKeyAndExpectation) {
       "outer.absent", "missing (expected a number in [0, 10])");
 }
 
+TEST(ConfigNode, ErrorsNameTheLine) {
+  const ConfigNode n = yaml("a: 1\nblock:\n  x: 1\n  y: oops\n  list: [1, 2, -3]\n");
+  const ConfigNode b = n.child("block");
+  try {
+    b.getDouble("y");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.line(), 4);
+    EXPECT_NE(std::string(e.what()).find("test.yaml:4: block.y:"), std::string::npos) << e.what();
+  }
+  try {
+    b.getDoubles("list", 3, vslam::config::nonNegative());
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.line(), 5);
+  }
+  b.getDouble("x");
+  try {
+    b.getDouble("z");  // missing: the line of the block it belongs in
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.line(), 3);
+  }
+}
+
 TEST(ConfigNode, MissingRequiredKeyNamesTheMisspeltOne) {
   const ConfigNode n = yaml("sigma_rotaton: 0.1\n");
   expectConfigError([&] { n.getDouble("sigma_rotation"); }, "sigma_rotation",
