@@ -1,0 +1,41 @@
+#include "sim/odometry_sim.hpp"
+
+#include <Eigen/Eigenvalues>
+
+namespace vslam::sim {
+
+OdometrySimulator::OdometrySimulator(const OdometryParams& params, uint64_t seed)
+    : params_(params), noise_{params.sigma_translation, params.sigma_rotation}, rng_(seed) {}
+
+void OdometrySimulator::addStep(const Pose2& true_step, double t) {
+  Pose2 measured = true_step;
+  for (const SlipEvent& slip : params_.slips) {
+    if (t >= slip.at_s && t < slip.at_s + slip.duration_s) {
+      measured.x *= slip.translation_factor;
+      measured.y *= slip.translation_factor;
+      measured.theta *= slip.rotation_factor;
+    }
+  }
+  const Eigen::Matrix3d q = noise_.stepCovariance(measured);
+  if (q.trace() > 0) {
+    // q = L L^T with L from the eigen decomposition (q may be singular: no
+    // lateral noise when driving straight).
+    const Eigen::Matrix3d l = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(q).operatorSqrt();
+    const Eigen::Vector3d e = l * Eigen::Vector3d(n01_(rng_), n01_(rng_), n01_(rng_));
+    measured = {measured.x + e.x(), measured.y + e.y(), measured.theta + e.z()};
+  }
+  pose_ = pose_.compose(measured);
+  distance_ += std::hypot(measured.x, measured.y);
+  rotation_ += std::abs(measured.theta);
+  last_step_ = measured;
+}
+
+void OdometrySimulator::setPose(const Pose2& pose) {
+  const Pose2 step = pose_.between(pose);
+  distance_ += std::hypot(step.x, step.y);
+  rotation_ += std::abs(step.theta);
+  last_step_ = step;
+  pose_ = pose;
+}
+
+}  // namespace vslam::sim

@@ -1,0 +1,201 @@
+// The simulator end to end: what it writes, that odometry and ground truth
+// agree when they should and part when they should, determinism, and the
+// vslam-sim program's handling of good and bad scenarios.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <vslam/camera_calibration_t.hpp>
+#include <vslam/ground_truth_pose_t.hpp>
+#include <vslam/image_t.hpp>
+#include <vslam/odometry_t.hpp>
+
+#include "config/robot_config.hpp"
+#include "sim/simulator.hpp"
+#include "support/test_logs.hpp"
+
+namespace fs = std::filesystem;
+using namespace vslam;
+
+namespace {
+
+const fs::path kSource(VSLAM_SOURCE_DIR);
+
+template <class Msg>
+Msg decode(const vslam::test::RecordedEvent& e) {
+  Msg m;
+  EXPECT_EQ(m.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+            static_cast<int>(e.data.size()));
+  return m;
+}
+
+// A free spot in the living room to start from, found by scanning the world.
+Pose2 freeStart(const world::World& w) {
+  const auto b = w.bounds();
+  const Eigen::Vector2d c = b.center();
+  for (double r = 0; r < 5; r += 0.1) {
+    for (double a = 0; a < 2 * M_PI; a += 0.3) {
+      const double x = c.x() + r * std::cos(a), y = c.y() + r * std::sin(a);
+      if (w.isFree(x, y, 0.6)) return {x, y, 0.0};
+    }
+  }
+  throw std::runtime_error("no free start");
+}
+
+class SimulatorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = vslam::test::scratchDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    world_file_ = kSource / "config/worlds/living_room.yaml";
+    robot_ = config::RobotConfig::loadFile(kSource / "config/robot/sim_two_camera.yaml");
+    start_ = freeStart(world::World::loadFile(world_file_));
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path writeScenario(const std::string& extra, double sigma = 0.0) {
+    std::ostringstream s;
+    s << "name: test\nworld: " << world_file_.string() << "\nseed: 7\n"
+      << "motion:\n  mode: actions\n  start: [" << start_.x << ", " << start_.y << ", 0]\n"
+      << "  actions: F L F\n  action_length_m: 0.4\n  action_error: 0\n  action_pause_s: 0.2\n"
+      << "odometry:\n  sigma_translation: " << sigma << "\n  sigma_rotation: " << sigma << "\n"
+      << extra;
+    const fs::path file = dir_ / "scenario.yaml";
+    std::ofstream(file) << s.str();
+    return file;
+  }
+
+  fs::path simulate(const fs::path& scenario_file, const std::string& name) {
+    const sim::Scenario sc = sim::Scenario::loadByName(scenario_file.string(), dir_);
+    sim::Simulator simulator(sc, robot_, 1767225600LL * 1000000);
+    const fs::path out = dir_ / name;
+    sim::LogFileSink sink(out.string());
+    while (simulator.step(sink)) {
+    }
+    return out;
+  }
+
+  fs::path dir_, world_file_;
+  config::RobotConfig robot_;
+  Pose2 start_;
+};
+
+int runCommand(const std::string& cmd, std::string* output) {
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return -1;
+  char buf[512];
+  while (std::fgets(buf, sizeof(buf), p)) *output += buf;
+  const int status = ::pclose(p);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+TEST_F(SimulatorTest, WritesEveryChannelAtItsRateInTimeOrder) {
+  const auto events = vslam::test::readLog(simulate(writeScenario(""), "run.lcmlog"));
+  std::map<std::string, int> count;
+  int64_t last_t = 0;
+  for (const auto& e : events) {
+    ++count[e.channel];
+    EXPECT_GE(e.timestamp, last_t);
+    last_t = e.timestamp;
+  }
+  const int odometry = count["ODOMETRY"];
+  // F 0.4 m at 0.3 m/s, L 90 deg at 45 deg/s, F 0.4 m, three 0.2 s pauses: ~5.3 s.
+  EXPECT_NEAR(odometry / 50.0, 5.3, 0.2);
+  EXPECT_EQ(count["GROUND_TRUTH"], odometry);
+  // 10 Hz cameras on a 50 Hz clock: one frame every 5 odometry messages.
+  EXPECT_EQ(count["CAM_FORWARD_IMAGE"], (odometry + 4) / 5);
+  EXPECT_EQ(count["CAM_BACKWARD_IMAGE"], (odometry + 4) / 5);
+  EXPECT_EQ(count["CAM_FORWARD_CALIBRATION"], (odometry + 49) / 50);
+  for (const auto& e : events) {
+    if (e.channel == "CAM_FORWARD_IMAGE") {
+      const auto img = decode<vslam::image_t>(e);
+      EXPECT_EQ(img.width, 320);
+      EXPECT_EQ(img.height, 240);
+      EXPECT_EQ(img.encoding, vslam::image_t::ENCODING_GRAY8);
+      EXPECT_EQ(img.data_size, 320 * 240);
+      EXPECT_EQ(img.camera, "forward");
+    }
+    if (e.channel == "CAM_BACKWARD_CALIBRATION") {
+      const auto cal = decode<vslam::camera_calibration_t>(e);
+      EXPECT_EQ(cal.image_channel, "CAM_BACKWARD_IMAGE");
+      EXPECT_NEAR(cal.fx, 277.13, 1e-9);
+      EXPECT_NEAR(cal.robot_t_camera[0], -0.10, 1e-12);
+    }
+  }
+}
+
+TEST_F(SimulatorTest, NoiselessOdometryIsTheTrueMotionAndKidnapIsNotInIt) {
+  const auto events = vslam::test::readLog(simulate(
+      writeScenario("disturbances:\n  kidnap:\n    - {at_s: 3.0, to: [" + std::to_string(start_.x) +
+                    ", " + std::to_string(start_.y) + ", 180]}\n"),
+      "kidnap.lcmlog"));
+  std::vector<vslam::ground_truth_pose_t> gt;
+  std::vector<vslam::odometry_t> odo;
+  for (const auto& e : events) {
+    if (e.channel == "GROUND_TRUTH") gt.push_back(decode<vslam::ground_truth_pose_t>(e));
+    if (e.channel == "ODOMETRY") odo.push_back(decode<vslam::odometry_t>(e));
+  }
+  ASSERT_EQ(gt.size(), odo.size());
+  size_t kidnap_index = 0;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_EQ(gt[i].utime, odo[i].utime);
+    EXPECT_EQ(odo[i].seq, static_cast<int64_t>(i));
+    const double t = 1e-6 * static_cast<double>(gt[i].utime - gt[0].utime);
+    const Pose2 truth{gt[i].x, gt[i].y, gt[i].theta};
+    if (t < 3.0 - 1e-9) {
+      // Odometry frame = the start pose: odom = start^-1 * truth.
+      const Pose2 expected = start_.between(truth);
+      EXPECT_NEAR(odo[i].x, expected.x, 1e-9) << "t=" << t;
+      EXPECT_NEAR(odo[i].y, expected.y, 1e-9);
+      EXPECT_NEAR(wrapAngle(odo[i].theta - expected.theta), 0, 1e-9);
+    } else if (kidnap_index == 0) {
+      kidnap_index = i;
+    }
+  }
+  ASSERT_GT(kidnap_index, 0u);
+  // The truth jumps back to the start, turned around; odometry moves on smoothly.
+  EXPECT_NEAR(gt[kidnap_index].x, start_.x, 1e-9);
+  EXPECT_NEAR(std::abs(gt[kidnap_index].theta), M_PI, 1e-9);
+  const double odo_jump = std::hypot(odo[kidnap_index].x - odo[kidnap_index - 1].x,
+                                     odo[kidnap_index].y - odo[kidnap_index - 1].y);
+  EXPECT_LT(odo_jump, 0.3 * 0.02 + 1e-9);
+}
+
+TEST_F(SimulatorTest, SameScenarioGivesTheSameLog) {
+  const fs::path scenario = writeScenario("", 0.02);
+  const auto a = vslam::test::readFileBytes(simulate(scenario, "a.lcmlog"));
+  const auto b = vslam::test::readFileBytes(simulate(scenario, "b.lcmlog"));
+  ASSERT_GT(a.size(), 1000000u);
+  EXPECT_TRUE(a == b);
+}
+
+TEST_F(SimulatorTest, ProgramWritesLogsAndRejectsBadScenarios) {
+  const std::string bin = std::string(VSLAM_BIN_DIR) + "/vslam-sim";
+  const std::string cfg = (kSource / "config/vslam.yaml").string();
+  std::string out;
+  ASSERT_EQ(runCommand(bin + " --config " + cfg + " --scenario " + writeScenario("").string() +
+                           " --duration 1 --out " + (dir_ / "p.lcmlog").string(),
+                       &out),
+            0)
+      << out;
+  int frames = 0;
+  for (const auto& e : vslam::test::readLog(dir_ / "p.lcmlog")) {
+    frames += e.channel == "CAM_FORWARD_IMAGE";
+  }
+  EXPECT_EQ(frames, 11);  // t = 0, 0.1, ..., 1.0
+
+  const fs::path bad = dir_ / "bad.yaml";
+  std::ifstream in(writeScenario(""));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::ofstream(bad) << text.str() << "colour: true\n";
+  std::string err;
+  EXPECT_EQ(runCommand(bin + " --config " + cfg + " --scenario " + bad.string() + " --out " +
+                           (dir_ / "x.lcmlog").string(),
+                       &err),
+            2);
+  EXPECT_NE(err.find("bad.yaml:14: colour: unknown key"), std::string::npos) << err;
+}
