@@ -17,6 +17,7 @@
 
 namespace fs = std::filesystem;
 using namespace vslam;
+using vslam::test::runCommand;
 using namespace vslam::bus;
 using vslam::test::readLog;
 using vslam::test::RecordedEvent;
@@ -116,15 +117,6 @@ Msg decode(const RecordedEvent& e) {
   EXPECT_EQ(m.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
             static_cast<int>(e.data.size()));
   return m;
-}
-
-int runCommand(const std::string& cmd, std::string* output) {
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return -1;
-  char buf[512];
-  while (std::fgets(buf, sizeof(buf), p)) *output += buf;
-  const int status = ::pclose(p);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 class LockstepReplayTest : public ::testing::Test {

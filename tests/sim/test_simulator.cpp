@@ -18,6 +18,7 @@
 
 namespace fs = std::filesystem;
 using namespace vslam;
+using vslam::test::runCommand;
 
 namespace {
 
@@ -80,15 +81,6 @@ class SimulatorTest : public ::testing::Test {
   config::RobotConfig robot_;
   Pose2 start_;
 };
-
-int runCommand(const std::string& cmd, std::string* output) {
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return -1;
-  char buf[512];
-  while (std::fgets(buf, sizeof(buf), p)) *output += buf;
-  const int status = ::pclose(p);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 }  // namespace
 

@@ -23,6 +23,10 @@ void writeDrivingLog(const std::filesystem::path& file, double seconds, double i
 std::vector<RecordedEvent> readLog(const std::filesystem::path& file);
 std::string readFileBytes(const std::filesystem::path& file);
 
+// Runs a shell command, collecting stdout and stderr; returns its exit code
+// (-1 if it did not exit normally).
+int runCommand(const std::string& command, std::string* output);
+
 // A per-test scratch directory, removed by the caller.
 std::filesystem::path scratchDir(const std::string& tag);
 
