@@ -153,4 +153,33 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
   return tris;
 }
 
+namespace {
+// Clips a convex polygon to the left side of the directed line ab.
+Polygon clipLeft(const Polygon& poly, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  Polygon out;
+  const Eigen::Vector2d d = b - a;
+  for (size_t i = 0, n = poly.size(); i < n; ++i) {
+    const Eigen::Vector2d& p = poly[i];
+    const Eigen::Vector2d& q = poly[(i + 1) % n];
+    const double sp = cross(d, p - a), sq = cross(d, q - a);
+    if (sp >= 0) out.push_back(p);
+    if ((sp >= 0) != (sq >= 0)) out.push_back(p + (q - p) * (sp / (sp - sq)));
+  }
+  return out;
+}
+}  // namespace
+
+double intersectionArea(const Polygon& a, const Polygon& b) {
+  double area = 0.0;
+  const auto ta = triangulate(a), tb = triangulate(b);
+  for (const auto& x : ta) {
+    for (const auto& y : tb) {
+      Polygon p = {a[x[0]], a[x[1]], a[x[2]]};
+      for (int k = 0; k < 3 && p.size() >= 3; ++k) p = clipLeft(p, b[y[k]], b[y[(k + 1) % 3]]);
+      if (p.size() >= 3) area += signedArea(p);
+    }
+  }
+  return area;
+}
+
 }  // namespace vslam::world::geo

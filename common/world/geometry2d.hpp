@@ -31,6 +31,8 @@ bool segmentsCross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eig
 // otherwise the offending edge indices are returned through edge_i/edge_j.
 bool isSimple(const Polygon& p, int* edge_i = nullptr, int* edge_j = nullptr);
 bool isConvex(const Polygon& p);  // counter-clockwise input
+// Area of the intersection of two simple counter-clockwise polygons.
+double intersectionArea(const Polygon& a, const Polygon& b);
 // Ear-clipping triangulation of a simple counter-clockwise polygon; triangles
 // are counter-clockwise index triples.
 std::vector<std::array<int, 3>> triangulate(const Polygon& p);

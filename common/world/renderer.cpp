@@ -287,19 +287,21 @@ const std::vector<float>& gaussianTable() {
   return table;
 }
 
-void addNoise(cv::Mat& img, double sigma, uint64_t seed) {
-  if (sigma <= 0.0) return;
+// out = saturate(round(linear * scale + N(0, sigma^2))), per channel.
+void quantizeWithNoise(const cv::Mat& linear, float scale, double sigma, uint64_t seed,
+                       cv::Mat& out) {
   const std::vector<float>& g = gaussianTable();
   uint64_t state = seed * 0xD1B54A32D192ED03ull + 0x2545F4914F6CDD1Dull;
   const float sg = static_cast<float>(sigma);
-  const int n = img.cols * img.channels();
-  for (int y = 0; y < img.rows; ++y) {
-    uint8_t* row = img.ptr<uint8_t>(y);
+  const int n = linear.cols * linear.channels();
+  for (int y = 0; y < linear.rows; ++y) {
+    const uint16_t* in = linear.ptr<uint16_t>(y);
+    uint8_t* row = out.ptr<uint8_t>(y);
     for (int x = 0; x < n; x += 4) {
       uint64_t r = splitmix64(state);
       const int m = std::min(4, n - x);
       for (int k = 0; k < m; ++k, r >>= 16) {
-        const float v = row[x + k] + sg * g[r & 0xFFFF];
+        const float v = in[x + k] * scale + sg * g[r & 0xFFFF];
         row[x + k] = static_cast<uint8_t>(std::clamp(v + 0.5f, 0.0f, 255.0f));
       }
     }
@@ -334,7 +336,8 @@ struct Renderer::Impl {
   // Per-frame scratch, reused.
   std::vector<Prepared> dynamic_prepared;
   std::vector<ShadeRec> recs;
-  cv::Mat pinhole;
+  cv::Mat pinhole;   // linear, 16-bit (see kLinearScale)
+  cv::Mat remapped;  // the same after the lens remap
   cv::Mat accum;
   std::vector<Eigen::Vector3d> clip_a, clip_b;
   std::vector<Eigen::Vector2d> screen;
@@ -614,7 +617,14 @@ inline void shadeAt(const ShadeRec& r, float x, float y, float* out) {
   }
 }
 
-inline uint8_t toByte(float v) { return static_cast<uint8_t>(std::clamp(v + 0.5f, 0.0f, 255.0f)); }
+// The pinhole image holds linear grey levels x kLinearScale in 16 bits, before
+// the global exposure: exposure, saturation and noise are applied after the
+// lens remap, as in a sensor (saturating first would make the remap blend
+// clipped values).
+constexpr float kLinearScale = 16.0f;
+inline uint16_t toLinear(float v) {
+  return static_cast<uint16_t>(std::clamp(v * kLinearScale + 0.5f, 0.0f, 65535.0f));
+}
 
 }  // namespace
 
@@ -623,14 +633,14 @@ void Renderer::Impl::shade() {
   constexpr int C = kColor ? 3 : 1;
   const float bg = options.background;
   for (int y = 0; y < ph; ++y) {
-    uint8_t* row = pinhole.ptr<uint8_t>(y);
+    uint16_t* row = pinhole.ptr<uint16_t>(y);
     const float fy = static_cast<float>(y);
     if (factor == 1) {
       const int32_t* ir = ids.data() + static_cast<size_t>(y) * sw;
       for (int x = 0; x < pw; ++x) {
         float v[3] = {bg, bg, bg};
         if (ir[x] >= 0) shadeAt<kColor>(recs[static_cast<size_t>(ir[x])], float(x), fy, v);
-        for (int k = 0; k < C; ++k) row[x * C + k] = toByte(v[k]);
+        for (int k = 0; k < C; ++k) row[x * C + k] = toLinear(v[k]);
       }
       continue;
     }
@@ -658,7 +668,7 @@ void Renderer::Impl::shade() {
         }
         for (int k = 0; k < C; ++k) v[k] = acc[k];
       }
-      for (int k = 0; k < C; ++k) row[x * C + k] = toByte(v[k]);
+      for (int k = 0; k < C; ++k) row[x * C + k] = toLinear(v[k]);
     }
   }
 }
@@ -672,7 +682,8 @@ void Renderer::Impl::renderPinhole(const Eigen::Isometry3d& world_T_camera,
   std::fill(zbuf.begin(), zbuf.end(), 0.0f);
   std::fill(ids.begin(), ids.end(), -1);
   recs.clear();
-  const float base_gain = static_cast<float>(world_exposure * effects.exposure);
+  // Global exposure is applied in finish(); rooms dim here.
+  const float base_gain = 1.0f;
   auto gainFor = [&](int room) {
     if (room < 0 || static_cast<size_t>(room) >= effects.room_exposure.size()) return base_gain;
     return base_gain * static_cast<float>(effects.room_exposure[static_cast<size_t>(room)]);
@@ -690,7 +701,7 @@ void Renderer::Impl::renderPinhole(const Eigen::Isometry3d& world_T_camera,
     }
     drawSurface(p, R_cw, t_cw, cam_pos, gainFor(room));
   }
-  pinhole.create(ph, pw, color ? CV_8UC3 : CV_8UC1);
+  pinhole.create(ph, pw, color ? CV_16UC3 : CV_16UC1);
   if (color) {
     shade<true>();
   } else {
@@ -699,14 +710,21 @@ void Renderer::Impl::renderPinhole(const Eigen::Isometry3d& world_T_camera,
 }
 
 void Renderer::Impl::finish(const RenderEffects& effects, bool color, cv::Mat& out) {
+  const cv::Mat* linear = &pinhole;
   if (distorted) {
-    out.create(camera.height, camera.width, color ? CV_8UC3 : CV_8UC1);
-    cv::remap(pinhole, out, map1, map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-              cv::Scalar::all(options.background));
-  } else {
-    pinhole.copyTo(out);
+    remapped.create(camera.height, camera.width, pinhole.type());
+    cv::remap(pinhole, remapped, map1, map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar::all(options.background * kLinearScale));
+    linear = &remapped;
   }
-  addNoise(out, effects.noise_sigma, effects.noise_seed);
+  out.create(camera.height, camera.width, color ? CV_8UC3 : CV_8UC1);
+  const double scale = world_exposure * effects.exposure / kLinearScale;
+  if (effects.noise_sigma <= 0.0) {
+    linear->convertTo(out, out.type(), scale);  // rounds and saturates
+  } else {
+    quantizeWithNoise(*linear, static_cast<float>(scale), effects.noise_sigma, effects.noise_seed,
+                      out);
+  }
 }
 
 Renderer::Renderer(const World& world, const CameraModel& camera, const RendererOptions& options)
@@ -747,7 +765,7 @@ void Renderer::renderBlurred(const std::vector<Eigen::Isometry3d>& world_T_camer
     render(world_T_camera_samples.front(), dynamic, effects, color, out);
     return;
   }
-  const int type = color ? CV_16UC3 : CV_16UC1;
+  const int type = color ? CV_32SC3 : CV_32SC1;
   m.accum.create(m.ph, m.pw, type);
   m.accum.setTo(0);
   for (const auto& pose : world_T_camera_samples) {
@@ -755,7 +773,7 @@ void Renderer::renderBlurred(const std::vector<Eigen::Isometry3d>& world_T_camer
     cv::add(m.accum, m.pinhole, m.accum, cv::noArray(), type);
   }
   const double n = static_cast<double>(world_T_camera_samples.size());
-  m.accum.convertTo(m.pinhole, color ? CV_8UC3 : CV_8UC1, 1.0 / n);
+  m.accum.convertTo(m.pinhole, color ? CV_16UC3 : CV_16UC1, 1.0 / n);
   m.finish(effects, color, out);
 }
 

@@ -47,7 +47,7 @@ struct RenderEffects {
 };
 
 struct RendererOptions {
-  double near_m = 0.01;    // near clipping plane
+  double near_m = 0.001;   // near clipping plane: a camera 1 cm from a wall still sees all of it
   bool antialias = true;   // 2x2 visibility samples per pixel (edges smoothed)
   uint8_t background = 0;  // where no surface is seen
 };

@@ -429,21 +429,7 @@ class Loader {
     for (size_t i = 0; i < rooms.size(); ++i) {
       for (size_t j = 0; j < i; ++j) {
         const geo::Polygon &a = rooms[i].polygon, &b = rooms[j].polygon;
-        bool overlap = false;
-        for (size_t k = 0; k < a.size() && !overlap; ++k) {
-          for (size_t l = 0; l < b.size() && !overlap; ++l) {
-            overlap = geo::segmentsCross(a[k], a[(k + 1) % a.size()], b[l], b[(l + 1) % b.size()],
-                                         /*proper=*/true);
-          }
-        }
-        auto insideOther = [](const geo::Polygon& p, const geo::Polygon& q) {
-          for (const auto& t : geo::triangulate(p)) {
-            const Eigen::Vector2d c = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0;
-            if (geo::contains(q, c) && geo::distanceToBoundary(q, c) > 1e-6) return true;
-          }
-          return false;
-        };
-        overlap = overlap || insideOther(a, b) || insideOther(b, a);
+        const bool overlap = geo::intersectionArea(a, b) > 1e-6;
         if (overlap) {
           nodes[i].child("polygon").fail("room '" + rooms[i].name + "' overlaps room '" +
                                          rooms[j].name + "'");
