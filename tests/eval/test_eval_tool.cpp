@@ -1,0 +1,415 @@
+// vslam-eval end to end: trajectories from LCM logs (defaults, explicit
+// channels, raw odometry), TUM files, the printed table and the JSON, TUM
+// copies, plots, and every kind of bad input with its exit code.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <vslam/ground_truth_pose_t.hpp>
+#include <vslam/map_t.hpp>
+#include <vslam/odometry_t.hpp>
+#include <vslam/pose_estimate_t.hpp>
+
+#include "eval/eval_cli.hpp"
+#include "eval/tum_file.hpp"
+#include "eval_test_util.hpp"
+#include "json_lite.hpp"
+
+namespace fs = std::filesystem;
+using vslam::test::contains;
+using vslam::test::JsonParser;
+using vslam::test::JsonValue;
+using vslam::test::LogBuilder;
+using vslam::test::runProgram;
+
+namespace {
+
+constexpr int64_t kT0 = 1700000000000000;  // utime of the first message
+
+struct DriveLog {
+  bool pose_estimate = false;     // POSE_ESTIMATE: ground truth + (0, 0.05)
+  bool pose_odometry = true;      // POSE_ODOMETRY: ground truth + (0.1, 0)
+  bool odometry = true;           // ODOMETRY: ground truth exactly
+  bool map = false;               // MAP with 5 landmarks
+  int64_t odometry_delay_us = 0;  // POSE_ODOMETRY stamps later than ground truth
+  int seconds = 10;
+};
+
+// A robot driving a circle of radius 1.5 m at 0.3 m/s; messages at 50 Hz.
+void writeDriveLog(const fs::path& file, const DriveLog& d) {
+  LogBuilder log(file);
+  const double v = 0.3, r = 1.5;
+  for (int i = 0; i <= d.seconds * 50; ++i) {
+    const int64_t t = kT0 + i * 20000;
+    const double s = i * 0.02, th = v / r * s;
+    const double x = r * std::sin(th), y = r * (1 - std::cos(th)),
+                 heading = std::remainder(th, 2 * M_PI);
+    vslam::ground_truth_pose_t gt{};
+    gt.utime = t;
+    gt.seq = i;
+    gt.x = x;
+    gt.y = y;
+    gt.theta = heading;
+    log.add(t + 100, "GROUND_TRUTH", gt);
+    if (d.odometry) {
+      vslam::odometry_t o{};
+      o.utime = t;
+      o.seq = i;
+      o.x = x;
+      o.y = y;
+      o.theta = heading;
+      o.distance = v * s;
+      log.add(t + 50, "ODOMETRY", o);
+    }
+    auto estimate = [&](double dx, double dy, int64_t delay) {
+      vslam::pose_estimate_t e{};
+      e.utime = t + delay;
+      e.seq = i;
+      e.estimator = "test";
+      e.x = x + dx;
+      e.y = y + dy;
+      e.theta = heading;
+      return e;
+    };
+    if (d.pose_odometry) {
+      log.add(t + 200, "POSE_ODOMETRY", estimate(0.1, 0.0, d.odometry_delay_us));
+    }
+    if (d.pose_estimate) log.add(t + 300, "POSE_ESTIMATE", estimate(0.0, 0.05, 0));
+    if (d.map && i % 50 == 0) {
+      vslam::map_t m{};
+      m.utime = t;
+      m.seq = i / 50;
+      m.estimator = "test";
+      m.database_id = "db";
+      for (int k = 0; k < 5; ++k) {
+        vslam::landmark_pose_t l{};
+        l.landmark_id = k;
+        l.x = 2.0 * std::cos(k);
+        l.y = 1.5 + 2.0 * std::sin(k);
+        m.landmarks.push_back(l);
+      }
+      m.num_landmarks = static_cast<int32_t>(m.landmarks.size());
+      log.add(t + 400, "MAP", m);
+    }
+  }
+}
+
+struct CliResult {
+  int code;
+  std::string out, err;
+};
+
+CliResult runCli(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = vslam::eval::runEvalCli(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+JsonValue readJson(const fs::path& file) { return JsonParser::parse(vslam::test::fileBytes(file)); }
+
+// The value of a table row for the (first) estimate column.
+std::string tableValue(const std::string& table, const std::string& row) {
+  std::istringstream in(table);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(row, 0) == 0) {
+      std::istringstream fields(line.substr(row.size()));
+      std::string v;
+      fields >> v;
+      return v;
+    }
+  }
+  return "<no row " + row + ">";
+}
+
+class EvalTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = vslam::test::freshDir(std::string("eval_tool_") +
+                                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+void writeText(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+}  // namespace
+
+TEST_F(EvalTool, LogOdometryOnlyPathWithDefaults) {
+  const fs::path log = dir_ / "run.lcmlog", json = dir_ / "out.json";
+  writeDriveLog(log, {});
+  const auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Defaults: POSE_ODOMETRY is present, so raw ODOMETRY is not evaluated.
+  const JsonValue j = readJson(json);
+  ASSERT_EQ(j["estimates"].array.size(), 1u);
+  const JsonValue& e = j["estimates"][0];
+  EXPECT_EQ(e["name"].str(), "POSE_ODOMETRY");
+  EXPECT_EQ(e["kind"].str(), "odometry");
+  EXPECT_EQ(e["source"].str(), "vslam.pose_estimate_t");
+  EXPECT_EQ(j["reference"]["name"].str(), "GROUND_TRUTH");
+  EXPECT_EQ(j["reference"]["poses"].num(), 501);
+  EXPECT_EQ(e["ate"]["pairs"].num(), 501);
+  EXPECT_NEAR(e["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
+  EXPECT_NEAR(e["ate"]["translation_m"]["median"].num(), 0.1, 1e-9);
+  EXPECT_NEAR(e["ate"]["translation_m"]["std"].num(), 0.0, 1e-9);
+  // A constant offset does not change relative motion: RPE 0. 1 s pairs at
+  // 50 Hz over 10 s: i = 0..449.
+  EXPECT_EQ(e["rpe"]["pairs"].num(), 450);
+  EXPECT_LT(e["rpe"]["translation_m"]["max"].num(), 1e-6);
+  EXPECT_EQ(j["parameters"]["align"].str(), "none");
+  EXPECT_NEAR(j["parameters"]["max_diff_s"].num(), 0.02, 1e-12);
+  // The table says the same.
+  EXPECT_TRUE(contains(r.out, "POSE_ODOMETRY")) << r.out;
+  EXPECT_EQ(tableValue(r.out, "ATE rmse [m]"), "0.100000") << r.out;
+  EXPECT_EQ(tableValue(r.out, "ATE pairs"), "501") << r.out;
+  EXPECT_EQ(tableValue(r.out, "RPE pairs"), "450") << r.out;
+
+  // With se2 alignment the offset is removed.
+  const auto aligned = runCli({log.string(), "--align", "se2", "--json", json.string()});
+  ASSERT_EQ(aligned.code, 0) << aligned.err;
+  EXPECT_LT(readJson(json)["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-6);
+}
+
+TEST_F(EvalTool, LogRawOdometryWhenNoPoseOdometry) {
+  const fs::path log = dir_ / "run.lcmlog", json = dir_ / "out.json";
+  writeDriveLog(log, {false, false, true});
+  const auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const JsonValue j = readJson(json);
+  ASSERT_EQ(j["estimates"].array.size(), 1u);
+  EXPECT_EQ(j["estimates"][0]["name"].str(), "ODOMETRY");
+  EXPECT_EQ(j["estimates"][0]["source"].str(), "vslam.odometry_t");
+  EXPECT_LT(j["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-9);
+}
+
+TEST_F(EvalTool, LogExplicitChannelsInOrder) {
+  const fs::path log = dir_ / "run.lcmlog", json = dir_ / "out.json";
+  writeDriveLog(log, {true, true, true});
+  auto r = runCli({log.string(), "--est-channel", "POSE_ESTIMATE", "--odom-channel", "ODOMETRY",
+                   "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const JsonValue j = readJson(json);
+  ASSERT_EQ(j["estimates"].array.size(), 2u);
+  EXPECT_EQ(j["estimates"][0]["name"].str(), "POSE_ESTIMATE");
+  EXPECT_EQ(j["estimates"][0]["kind"].str(), "estimate");
+  EXPECT_NEAR(j["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.05, 1e-9);
+  EXPECT_EQ(j["estimates"][1]["name"].str(), "ODOMETRY");
+  EXPECT_EQ(j["estimates"][1]["kind"].str(), "odometry");
+  // Defaults with everything present: POSE_ESTIMATE and POSE_ODOMETRY.
+  r = runCli({log.string(), "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(readJson(json)["estimates"].array.size(), 2u);
+  EXPECT_EQ(readJson(json)["estimates"][1]["name"].str(), "POSE_ODOMETRY");
+  EXPECT_EQ(readJson(json)["parameters"]["align"].str(), "se3");  // the default
+  // An explicit channel that is not there is an error naming it.
+  r = runCli({log.string(), "--est-channel", "POSE_BACKEND"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, "no messages on channel POSE_BACKEND")) << r.err;
+  EXPECT_TRUE(contains(r.err, "POSE_ODOMETRY (501)")) << r.err;  // lists what is there
+}
+
+TEST_F(EvalTool, MaxDiffAndOffsetControlAssociation) {
+  // POSE_ODOMETRY stamped 7 ms late; ground truth every 20 ms, so each
+  // estimate is 7 ms from its own reference pose and 13 ms from the next.
+  const fs::path log = dir_ / "run.lcmlog", json = dir_ / "out.json";
+  DriveLog d;
+  d.odometry_delay_us = 7000;
+  writeDriveLog(log, d);
+  auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 501);
+  EXPECT_NEAR(readJson(json)["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
+  r = runCli({log.string(), "--max-diff", "0.005"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, "no associated poses")) << r.err;
+  EXPECT_TRUE(contains(r.err, "POSE_ODOMETRY")) << r.err;
+  r = runCli({log.string(), "--max-diff", "0.005", "--offset", "-0.007", "--align", "none",
+              "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 501);
+  EXPECT_NEAR(readJson(json)["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
+  // 15 ms late: the nearest reference pose is the next one (5 ms), so every
+  // estimate pairs with the pose 20 ms after its own and the last has none.
+  d.odometry_delay_us = 15000;
+  writeDriveLog(log, d);
+  r = runCli({log.string(), "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 500);
+}
+
+TEST_F(EvalTool, PlotsAreWrittenWithTheRightSizeAndColours) {
+  const fs::path log = dir_ / "run.lcmlog", plots = dir_ / "plots" / "sub";
+  writeDriveLog(log, {true, true, false, true});
+  const auto r = runCli({log.string(), "--plot-dir", plots.string(), "--plot-size", "640x480"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "map: 5 landmarks")) << r.out;
+  auto countColour = [](const cv::Mat& img, const cv::Vec3b& lo, const cv::Vec3b& hi) {
+    cv::Mat mask;
+    cv::inRange(img, lo, hi, mask);
+    return cv::countNonZero(mask);
+  };
+  for (const char* name : {"trajectory.png", "error.png"}) {
+    const fs::path p = plots / name;
+    ASSERT_TRUE(fs::exists(p)) << p;
+    EXPECT_GT(fs::file_size(p), 1000u);
+    const cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(img.empty()) << p;
+    EXPECT_EQ(img.cols, 640);
+    EXPECT_EQ(img.rows, 480);
+    // Red estimate and green odometry are drawn.
+    EXPECT_GT(countColour(img, {0, 0, 180}, {60, 60, 255}), 50) << name;
+    EXPECT_GT(countColour(img, {0, 130, 0}, {60, 210, 60}), 50) << name;
+  }
+  const cv::Mat traj = cv::imread((plots / "trajectory.png").string(), cv::IMREAD_COLOR);
+  EXPECT_GT(countColour(traj, {180, 0, 0}, {255, 100, 60}), 30);  // blue landmarks
+  EXPECT_GT(countColour(traj, {0, 0, 0}, {40, 40, 40}), 200);     // black reference, text
+  // Too small a plot is a usage error.
+  EXPECT_EQ(runCli({log.string(), "--plot-dir", plots.string(), "--plot-size", "100x80"}).code, 2);
+}
+
+TEST_F(EvalTool, WritesEstimatesAndReferenceAsTum) {
+  const fs::path log = dir_ / "run.lcmlog", tum = dir_ / "est.txt", ref = dir_ / "gt.txt";
+  writeDriveLog(log, {});
+  auto r = runCli({log.string(), "--write-tum", tum.string(), "--write-tum-ref", ref.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto est = vslam::eval::readTumFile(tum);
+  ASSERT_EQ(est.size(), 501u);
+  EXPECT_NEAR(est.poses[0].t, kT0 * 1e-6, 1e-6);
+  EXPECT_NEAR(est.poses[0].position.x(), 0.1, 1e-9);
+  EXPECT_EQ(vslam::eval::readTumFile(ref).size(), 501u);
+  // Several estimates: one file each, named after the channel.
+  writeDriveLog(log, {true, true, true});
+  r = runCli({log.string(), "--write-tum", tum.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(vslam::eval::readTumFile(dir_ / "est.POSE_ESTIMATE.txt").size(), 501u);
+  EXPECT_EQ(vslam::eval::readTumFile(dir_ / "est.POSE_ODOMETRY.txt").size(), 501u);
+}
+
+TEST_F(EvalTool, TumFilesThroughTheProgram) {
+  // Reference: 1 m square path; estimate rotated 90 degrees and shifted.
+  std::ostringstream ref, est;
+  for (int i = 0; i < 40; ++i) {
+    const int edge = i / 10;
+    const double s = (i % 10) * 0.1;
+    const double x = edge == 0 ? s : edge == 1 ? 1 : edge == 2 ? 1 - s : 0;
+    const double y = edge == 0 ? 0 : edge == 1 ? s : edge == 2 ? 1 : 1 - s;
+    ref << 10 + 0.1 * i << " " << x << " " << y << " 0 0 0 0 1\n";
+    est << 10 + 0.1 * i + 0.005 << " " << 5 - y << " " << x << " 0 0 0 0.7071067811865476 "
+        << "0.7071067811865476\n";
+  }
+  writeText(dir_ / "ref.txt", "# timestamp tx ty tz qx qy qz qw\n" + ref.str());
+  writeText(dir_ / "est.txt", est.str());
+  const fs::path json = dir_ / "o.json";
+  auto r = runProgram("vslam-eval",
+                      {"--trajectory", "--ref", (dir_ / "ref.txt").string(), "--est",
+                       (dir_ / "est.txt").string(), "--align", "se2", "--json", json.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "ATE rmse [m]")) << r.output;
+  const JsonValue j = readJson(json);
+  EXPECT_EQ(j["estimates"][0]["ate"]["pairs"].num(), 40);
+  EXPECT_LT(j["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-6);
+  EXPECT_NEAR(j["estimates"][0]["alignment"]["yaw_deg"].num(), -90.0, 1e-6);
+  r = runProgram("vslam-eval",
+                 {"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "est.txt").string(),
+                  "--align", "none", "--json", json.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_GT(readJson(json)["estimates"][0]["ate"]["translation_m"]["min"].num(), 2.9);
+}
+
+TEST_F(EvalTool, UsageErrorsExitWithCode2) {
+  const fs::path log = dir_ / "run.lcmlog";
+  writeDriveLog(log, {});
+  const std::vector<std::vector<std::string>> cases = {
+      {},
+      {log.string(), "--bogus"},
+      {log.string(), "--align", "se4"},
+      {log.string(), "--delta-unit", "rad"},
+      {log.string(), "--max-diff", "0"},
+      {log.string(), "--max-diff", "abc"},
+      {log.string(), "--delta"},
+      {log.string(), log.string()},
+      {log.string(), "--ref", "a.txt", "--est", "b.txt"},
+      {"--ref", "a.txt"},
+      {"--est", "b.txt"},
+      {"--ref", "a.txt", "--est", "b.txt", "--ref-channel", "GT"},
+  };
+  for (const auto& args : cases) {
+    const auto r = runProgram("vslam-eval", args);
+    std::string joined;
+    for (const auto& a : args) joined += a + " ";
+    EXPECT_EQ(r.exit_code, 2) << joined << "\n" << r.output;
+    EXPECT_TRUE(contains(r.output, "vslam-eval: ")) << r.output;
+  }
+  const auto help = runProgram("vslam-eval", {"--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_TRUE(contains(help.output, "--trajectory")) << help.output;
+}
+
+TEST_F(EvalTool, DataErrorsExitWithCode1AndSayWhatIsWrong) {
+  const fs::path good = dir_ / "good.lcmlog";
+  writeDriveLog(good, {});
+  const std::string bytes = vslam::test::fileBytes(good);
+
+  // A log cut in the middle of its last event.
+  const fs::path cut = dir_ / "cut.lcmlog";
+  writeText(cut, bytes.substr(0, bytes.size() - 10));
+  // Garbage between two events.
+  const fs::path first = dir_ / "first.lcmlog", garbage = dir_ / "garbage.lcmlog";
+  DriveLog short_log;
+  short_log.seconds = 1;
+  writeDriveLog(first, short_log);
+  writeText(garbage, vslam::test::fileBytes(first) + "JUNKJUNK" + bytes);
+  // Not a log at all.
+  const fs::path text = dir_ / "text.lcmlog";
+  writeText(text, "this is not an LCM log\n");
+  // A log without estimates, one without the reference.
+  const fs::path no_est = dir_ / "noest.lcmlog";
+  writeDriveLog(no_est, {false, false, false});
+  // TUM files: malformed, empty.
+  writeText(dir_ / "ref.txt", "1 0 0 0 0 0 0 1\n2 1 0 0 0 0 0 1\n3 2 0 0 0 0 0 1\n");
+  writeText(dir_ / "bad.txt", "# estimate\n1 0 0 0 0 0 0 1\n2 1 0 0 0 0 1\n");
+  writeText(dir_ / "empty.txt", "# nothing\n");
+  writeText(dir_ / "late.txt", "101 0 0 0 0 0 0 1\n102 1 0 0 0 0 0 1\n103 2 0 0 0 0 0 1\n");
+
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{(dir_ / "missing.lcmlog").string()}, "missing.lcmlog: no such file"},
+      {{cut.string()}, "is damaged: the last"},
+      {{garbage.string()}, "garbage.lcmlog is damaged"},
+      {{text.string()}, "not an LCM log"},
+      {{good.string(), "--ref-channel", "GT"}, "no messages on channel GT"},
+      {{no_est.string()}, "no estimate to evaluate"},
+      {{good.string(), "--ref-channel", "ODOMETRY", "--odom-channel", "GROUND_TRUTH", "--offset",
+        "100"},
+       "no associated poses"},
+      {{"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "bad.txt").string()},
+       "bad.txt:3: expected 8 fields"},
+      {{"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "empty.txt").string()},
+       "empty.txt: no poses"},
+      {{"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "nope.txt").string()},
+       "nope.txt: no such file"},
+      {{"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "late.txt").string()},
+       "no associated poses"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto r = runProgram("vslam-eval", args);
+    EXPECT_EQ(r.exit_code, 1) << args[0] << "\n" << r.output;
+    EXPECT_TRUE(contains(r.output, message)) << "expected '" << message << "' in:\n" << r.output;
+  }
+}
+
+TEST_F(EvalTool, WrongMessageTypeOnAChannelIsNamed) {
+  const fs::path log = dir_ / "run.lcmlog";
+  writeDriveLog(log, {true, true, false, true});
+  const auto r = runCli({log.string(), "--ref-channel", "MAP"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(contains(r.err, "channel MAP")) << r.err;
+  EXPECT_TRUE(contains(r.err, "not vslam.ground_truth_pose_t")) << r.err;
+  const auto r2 =
+      runCli({log.string(), "--map-channel", "POSE_ESTIMATE", "--est-channel", "POSE_ODOMETRY"});
+  EXPECT_EQ(r2.code, 1);
+  EXPECT_TRUE(contains(r2.err, "is not vslam.map_t")) << r2.err;
+}
