@@ -1,0 +1,461 @@
+#include "eval/tum_import.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <tuple>
+#include <vslam/camera_calibration_t.hpp>
+#include <vslam/ground_truth_pose_t.hpp>
+#include <vslam/image_t.hpp>
+#include <vslam/odometry_t.hpp>
+
+#include "config/robot_config.hpp"
+#include "eval/errors.hpp"
+#include "eval/tum_file.hpp"
+#include "util/angles.hpp"
+#include "util/log.hpp"
+
+namespace vslam::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+int64_t toUtime(double seconds) { return static_cast<int64_t>(std::llround(seconds * 1e6)); }
+
+std::string upper(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string sizeText(const cv::Size& s) {
+  return std::to_string(s.width) + "x" + std::to_string(s.height);
+}
+
+struct ImageEntry {
+  double t = 0;
+  std::string filename;  // as in the list
+  int line = 0;
+};
+
+std::vector<ImageEntry> readImageList(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec))
+    throw DataError(file.string() + ": no such file (image list)");
+  std::ifstream in(file);
+  if (!in) throw DataError(file.string() + ": cannot open for reading");
+  std::vector<ImageEntry> out;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (isTumCommentOrBlank(line)) continue;
+    const auto fields = splitTumFields(line);
+    const std::string where = file.string() + ":" + std::to_string(line_no) + ": ";
+    if (fields.size() != 2) {
+      throw DataError(where + "expected 'timestamp filename', found " +
+                      std::to_string(fields.size()) + " fields");
+    }
+    char* end = nullptr;
+    const double t = std::strtod(fields[0].c_str(), &end);
+    if (end != fields[0].c_str() + fields[0].size() || !std::isfinite(t)) {
+      throw DataError(where + "timestamp '" + fields[0] + "' is not a number");
+    }
+    out.push_back({t, fields[1], line_no});
+  }
+  if (out.empty()) throw DataError(file.string() + ": lists no images");
+  std::stable_sort(out.begin(), out.end(),
+                   [](const ImageEntry& a, const ImageEntry& b) { return a.t < b.t; });
+  return out;
+}
+
+struct Calibration {
+  cv::Size size;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::vector<double> distortion;
+};
+
+Calibration readCalibration(const fs::path& file) {
+  const std::string name = file.string();
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw DataError(name + ": no such file (calibration)");
+  cv::FileStorage fs_in;
+  try {
+    fs_in.open(name, cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw DataError(name + ": not an OpenCV calibration file: " + e.what());
+  }
+  if (!fs_in.isOpened()) throw DataError(name + ": cannot be read as an OpenCV calibration file");
+  Calibration c;
+  try {
+    if (fs_in["image_width"].empty() || fs_in["image_height"].empty()) {
+      throw DataError(name + ": image_width/image_height missing");
+    }
+    c.size = {static_cast<int>(fs_in["image_width"]), static_cast<int>(fs_in["image_height"])};
+    cv::Mat k, d;
+    fs_in["camera_matrix"] >> k;
+    if (k.rows != 3 || k.cols != 3) throw DataError(name + ": camera_matrix must be a 3x3 matrix");
+    k.convertTo(k, CV_64F);
+    c.fx = k.at<double>(0, 0);
+    c.fy = k.at<double>(1, 1);
+    c.cx = k.at<double>(0, 2);
+    c.cy = k.at<double>(1, 2);
+    if (!fs_in["distortion_coefficients"].empty()) {
+      fs_in["distortion_coefficients"] >> d;
+      d.convertTo(d, CV_64F);
+      for (int i = 0; i < static_cast<int>(d.total()); ++i) c.distortion.push_back(d.at<double>(i));
+    }
+  } catch (const cv::Exception& e) {
+    throw DataError(name + ": malformed calibration: " + e.what());
+  }
+  if (c.size.width < 1 || c.size.height < 1) {
+    throw DataError(name + ": image_width/image_height must be positive");
+  }
+  if (!(c.fx > 0) || !(c.fy > 0))
+    throw DataError(name + ": camera_matrix focal lengths must be > 0");
+  const std::size_t n = c.distortion.size();
+  if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
+    throw DataError(name +
+                    ": distortion_coefficients must have 0, 4, 5, 8, 12 or 14 entries, has " +
+                    std::to_string(n));
+  }
+  return c;
+}
+
+// Reads one listed image as 8-bit gray or BGR.
+cv::Mat loadImage(const fs::path& dir, const fs::path& list, const ImageEntry& e) {
+  const fs::path path = dir / e.filename;
+  const std::string where =
+      list.string() + ":" + std::to_string(e.line) + ": image '" + e.filename + "'";
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw DataError(where + ": no such file " + path.string());
+  cv::Mat img;
+  try {
+    img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& ex) {
+    throw DataError(where + ": unreadable: " + ex.what());
+  }
+  if (img.empty()) throw DataError(where + ": unreadable (not a PNG/JPEG image, or damaged)");
+  if (img.depth() != CV_8U) {
+    throw DataError(where + ": has " + std::to_string(img.elemSize1() * 8) +
+                    "-bit samples; only 8-bit images are supported");
+  }
+  if (img.channels() == 4) {
+    cv::cvtColor(img, img, cv::COLOR_BGRA2BGR);
+  } else if (img.channels() == 2) {
+    cv::Mat planes[2];
+    cv::split(img, planes);
+    img = planes[0];  // gray + alpha
+  } else if (img.channels() != 1 && img.channels() != 3) {
+    throw DataError(where + ": has " + std::to_string(img.channels()) + " channels");
+  }
+  return img;
+}
+
+template <class Msg>
+std::vector<uint8_t> encode(const Msg& msg) {
+  std::vector<uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+  msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  return buf;
+}
+
+// Kinds in the order they are written at equal timestamps.
+enum class Kind { kCalibration = 0, kGroundTruth = 1, kOdometry = 2, kImage = 3 };
+
+struct Pending {
+  int64_t utime;
+  Kind kind;
+  std::size_t index;
+};
+
+class LogWriter {
+ public:
+  explicit LogWriter(const fs::path& file) : file_(file), log_(file.string(), "w") {
+    if (!log_.good()) throw DataError(file.string() + ": cannot create the log");
+  }
+  void write(int64_t utime, const std::string& channel, const std::vector<uint8_t>& data) {
+    lcm::LogEvent ev;
+    ev.eventnum = eventnum_++;
+    ev.timestamp = utime;
+    ev.channel = channel;
+    ev.datalen = static_cast<int32_t>(data.size());
+    ev.data = const_cast<uint8_t*>(data.data());
+    if (log_.writeEvent(&ev) != 0) throw DataError(file_.string() + ": write failed (disk full?)");
+  }
+
+ private:
+  fs::path file_;
+  lcm::LogFile log_;
+  int64_t eventnum_ = 0;
+};
+
+// Removes the partial output unless released.
+class PartialFile {
+ public:
+  explicit PartialFile(fs::path p) : path_(std::move(p)) {}
+  ~PartialFile() {
+    if (!path_.empty()) {
+      std::error_code ec;
+      fs::remove(path_, ec);
+    }
+  }
+  void release() { path_.clear(); }
+
+ private:
+  fs::path path_;
+};
+
+}  // namespace
+
+std::optional<ImageEncoding> parseImageEncoding(const std::string& word) {
+  if (word == "gray8") return ImageEncoding::kGray8;
+  if (word == "bgr8") return ImageEncoding::kBgr8;
+  if (word == "jpeg") return ImageEncoding::kJpeg;
+  return std::nullopt;
+}
+
+std::string toString(ImageEncoding encoding) {
+  switch (encoding) {
+    case ImageEncoding::kGray8:
+      return "gray8";
+    case ImageEncoding::kBgr8:
+      return "bgr8";
+    case ImageEncoding::kJpeg:
+      return "jpeg";
+  }
+  return "?";
+}
+
+std::string defaultImageChannel(const std::string& camera) {
+  return "CAM_" + upper(camera) + "_IMAGE";
+}
+std::string defaultCalibrationChannel(const std::string& camera) {
+  return "CAM_" + upper(camera) + "_CALIBRATION";
+}
+
+ImportStats importTumDataset(const ImportOptions& o) {
+  std::error_code ec;
+  if (!fs::is_directory(o.dataset, ec)) throw DataError(o.dataset.string() + ": no such folder");
+  if (o.jpeg_quality < 1 || o.jpeg_quality > 100) throw UsageError("JPEG quality must be 1..100");
+  ImportStats stats;
+  stats.image_channel = o.image_channel.empty() ? defaultImageChannel(o.camera) : o.image_channel;
+  stats.calibration_channel =
+      o.calibration_channel.empty() ? defaultCalibrationChannel(o.camera) : o.calibration_channel;
+
+  // Inputs, all checked before anything is written.
+  const fs::path list_file = o.rgb_list.value_or(o.dataset / "rgb.txt");
+  const std::vector<ImageEntry> images = readImageList(list_file);
+  const fs::path image_dir = o.rgb_list ? list_file.parent_path() : o.dataset;
+  const fs::path gt_file = o.groundtruth.value_or(o.dataset / "groundtruth.txt");
+  const Trajectory gt = readTumFile(gt_file);
+  std::optional<Trajectory> odo;
+  if (o.odometry) odo = readTumFile(*o.odometry);
+  const Calibration calib = readCalibration(o.calibration);
+
+  // Sizes: the first image sets the source size; the calibration must refer
+  // to the written size or to the source size (then it is rescaled).
+  const cv::Mat first = loadImage(image_dir, list_file, images.front());
+  stats.source_size = first.size();
+  stats.image_size = o.resize.value_or(stats.source_size);
+  Calibration out_calib = calib;
+  if (calib.size != stats.image_size) {
+    if (calib.size != stats.source_size) {
+      throw DataError(o.calibration.string() + ": is for " + sizeText(calib.size) +
+                      " images, but the images are " + sizeText(stats.source_size) +
+                      (o.resize ? " (resized to " + sizeText(*o.resize) + ")" : std::string()));
+    }
+    const double sx = static_cast<double>(stats.image_size.width) / stats.source_size.width;
+    const double sy = static_cast<double>(stats.image_size.height) / stats.source_size.height;
+    // cv::resize maps pixel centres: u' + 0.5 = s (u + 0.5).
+    out_calib.fx *= sx;
+    out_calib.fy *= sy;
+    out_calib.cx = (calib.cx + 0.5) * sx - 0.5;
+    out_calib.cy = (calib.cy + 0.5) * sy - 0.5;
+    out_calib.size = stats.image_size;
+  }
+
+  if (o.frame_rate_hz > 0) {
+    stats.frame_rate_hz = o.frame_rate_hz;
+  } else if (images.size() > 1) {
+    std::vector<double> dt;
+    for (std::size_t i = 1; i < images.size(); ++i) dt.push_back(images[i].t - images[i - 1].t);
+    std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+    const double median = dt[dt.size() / 2];
+    stats.frame_rate_hz = median > 0 ? 1.0 / median : 0.0;
+  }
+
+  // Extrinsics.
+  Eigen::Isometry3d robot_T_camera = Eigen::Isometry3d::Identity();
+  robot_T_camera.linear() = config::robotRotationCamera(degToRad(o.camera_yaw_pitch_roll_deg[0]),
+                                                        degToRad(o.camera_yaw_pitch_roll_deg[1]),
+                                                        degToRad(o.camera_yaw_pitch_roll_deg[2]));
+  robot_T_camera.translation() = o.camera_position_m;
+  const Eigen::Isometry3d camera_T_robot = robot_T_camera.inverse();
+  const Eigen::Quaterniond robot_q_camera(robot_T_camera.linear());
+
+  // The schedule of events.
+  std::vector<Pending> schedule;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    schedule.push_back({toUtime(images[i].t), Kind::kImage, i});
+  }
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    schedule.push_back({toUtime(gt.poses[i].t), Kind::kGroundTruth, i});
+  }
+  if (odo) {
+    for (std::size_t i = 0; i < odo->size(); ++i) {
+      schedule.push_back({toUtime(odo->poses[i].t), Kind::kOdometry, i});
+    }
+  }
+  const int64_t first_image = toUtime(images.front().t), last_image = toUtime(images.back().t);
+  const int64_t period = std::max<int64_t>(1, toUtime(o.calibration_period_s));
+  std::size_t n_calib = 0;
+  for (int64_t t = first_image; t <= last_image; t += period) {
+    schedule.push_back({t, Kind::kCalibration, n_calib++});
+  }
+  std::stable_sort(schedule.begin(), schedule.end(), [](const Pending& a, const Pending& b) {
+    return std::make_tuple(a.utime, static_cast<int>(a.kind), a.index) <
+           std::make_tuple(b.utime, static_cast<int>(b.kind), b.index);
+  });
+
+  // Write to a temporary file next to the output, renamed at the end.
+  if (o.output.empty()) throw UsageError("no output log given");
+  const fs::path tmp = o.output.string() + ".partial";
+  PartialFile guard(tmp);
+  {
+    LogWriter log(tmp);
+    double odo_distance = 0, odo_rotation = 0;
+    for (const Pending& ev : schedule) {
+      switch (ev.kind) {
+        case Kind::kCalibration: {
+          vslam::camera_calibration_t m{};
+          m.utime = ev.utime;
+          m.camera = o.camera;
+          m.image_channel = stats.image_channel;
+          m.width = out_calib.size.width;
+          m.height = out_calib.size.height;
+          m.frame_rate = stats.frame_rate_hz;
+          m.fx = out_calib.fx;
+          m.fy = out_calib.fy;
+          m.cx = out_calib.cx;
+          m.cy = out_calib.cy;
+          m.num_distortion = static_cast<int8_t>(out_calib.distortion.size());
+          m.distortion = out_calib.distortion;
+          for (int i = 0; i < 3; ++i) m.robot_t_camera[i] = o.camera_position_m[i];
+          m.robot_q_camera[0] = robot_q_camera.w();
+          m.robot_q_camera[1] = robot_q_camera.x();
+          m.robot_q_camera[2] = robot_q_camera.y();
+          m.robot_q_camera[3] = robot_q_camera.z();
+          log.write(ev.utime, stats.calibration_channel, encode(m));
+          ++stats.calibration;
+          break;
+        }
+        case Kind::kGroundTruth: {
+          Eigen::Isometry3d world_T_base = gt.poses[ev.index].isometry();
+          if (o.groundtruth_is_camera) world_T_base = world_T_base * camera_T_robot;
+          const PlanarPose p = planarFromPose(world_T_base, o.floor);
+          vslam::ground_truth_pose_t m{};
+          m.utime = ev.utime;
+          m.seq = static_cast<int64_t>(ev.index);
+          m.x = p.x;
+          m.y = p.y;
+          m.z = p.z;
+          m.theta = p.theta;
+          log.write(ev.utime, o.ground_truth_channel, encode(m));
+          ++stats.ground_truth;
+          break;
+        }
+        case Kind::kOdometry: {
+          const auto& poses = odo->poses;
+          const PlanarPose p = planarFromPose(poses[ev.index].isometry(), FloorAxes::kXY);
+          vslam::odometry_t m{};
+          m.utime = ev.utime;
+          m.seq = static_cast<int64_t>(ev.index);
+          m.x = p.x;
+          m.y = p.y;
+          m.theta = p.theta;
+          if (ev.index > 0) {
+            const PlanarPose q = planarFromPose(poses[ev.index - 1].isometry(), FloorAxes::kXY);
+            const double dx = p.x - q.x, dy = p.y - q.y, dth = wrapAngle(p.theta - q.theta);
+            const double dt = poses[ev.index].t - poses[ev.index - 1].t;
+            odo_distance += std::hypot(dx, dy);
+            odo_rotation += std::abs(dth);
+            if (dt > 0) {
+              // Signed forward speed along the previous heading.
+              m.v = (dx * std::cos(q.theta) + dy * std::sin(q.theta)) / dt;
+              m.omega = dth / dt;
+            }
+          }
+          m.distance = odo_distance;
+          m.rotation = odo_rotation;
+          log.write(ev.utime, o.odometry_channel, encode(m));
+          ++stats.odometry;
+          break;
+        }
+        case Kind::kImage: {
+          const ImageEntry& e = images[ev.index];
+          cv::Mat img = ev.index == 0 ? first : loadImage(image_dir, list_file, e);
+          if (img.size() != stats.source_size) {
+            throw DataError(list_file.string() + ":" + std::to_string(e.line) + ": image '" +
+                            e.filename + "' is " + sizeText(img.size()) + ", but the first ('" +
+                            images.front().filename + "', line " +
+                            std::to_string(images.front().line) + ") is " +
+                            sizeText(stats.source_size) + "; all images must have one size");
+          }
+          if (o.resize && *o.resize != img.size()) {
+            const bool shrink = o.resize->area() < img.size().area();
+            cv::resize(img, img, *o.resize, 0, 0, shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
+          }
+          vslam::image_t m{};
+          m.utime = ev.utime;
+          m.seq = static_cast<int64_t>(ev.index);
+          m.camera = o.camera;
+          m.width = img.cols;
+          m.height = img.rows;
+          m.exposure = 1.0f;
+          switch (o.encoding) {
+            case ImageEncoding::kGray8:
+              if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
+              m.encoding = vslam::image_t::ENCODING_GRAY8;
+              m.row_stride = img.cols;
+              break;
+            case ImageEncoding::kBgr8:
+              if (img.channels() == 1) cv::cvtColor(img, img, cv::COLOR_GRAY2BGR);
+              m.encoding = vslam::image_t::ENCODING_BGR8;
+              m.row_stride = img.cols * 3;
+              break;
+            case ImageEncoding::kJpeg:
+              m.encoding = vslam::image_t::ENCODING_JPEG;
+              m.row_stride = 0;
+              break;
+          }
+          if (o.encoding == ImageEncoding::kJpeg) {
+            std::vector<uint8_t> jpeg;
+            if (!cv::imencode(".jpg", img, jpeg, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality})) {
+              throw DataError(list_file.string() + ":" + std::to_string(e.line) +
+                              ": cannot JPEG-encode '" + e.filename + "'");
+            }
+            m.data = std::move(jpeg);
+          } else {
+            if (!img.isContinuous()) img = img.clone();
+            m.data.assign(img.data, img.data + img.total() * img.elemSize());
+          }
+          m.data_size = static_cast<int32_t>(m.data.size());
+          log.write(ev.utime, stats.image_channel, encode(m));
+          ++stats.images;
+          break;
+        }
+      }
+    }
+  }  // closes the log
+  fs::rename(tmp, o.output, ec);
+  if (ec) throw DataError(o.output.string() + ": cannot move the log into place: " + ec.message());
+  guard.release();
+  stats.first_utime = schedule.front().utime;
+  stats.last_utime = schedule.back().utime;
+  return stats;
+}
+
+}  // namespace vslam::eval
