@@ -310,6 +310,36 @@ std::vector<double> ConfigNode::getDoubles(const std::string& key, size_t expect
   return out;
 }
 
+std::vector<std::vector<double>> ConfigNode::getDoubleRows(const std::string& key, size_t row_size,
+                                                           InRange range) const {
+  markUsed(key);
+  const std::string what = "a list of [" + std::to_string(row_size) + " numbers] rows";
+  if (!has(key)) throw missing(key, what);
+  const YAML::Node n = node_[key];
+  if (!n.IsSequence()) throw error(key, "expected " + what + ", found " + typeName(n));
+  std::vector<std::vector<double>> rows;
+  for (size_t i = 0; i < n.size(); ++i) {
+    const std::string item = key + "[" + std::to_string(i) + "]";
+    if (!n[i].IsSequence() || n[i].size() != row_size) {
+      throw error(item, "expected a list of " + std::to_string(row_size) + " numbers");
+    }
+    std::vector<double> row;
+    for (size_t j = 0; j < row_size; ++j) {
+      double v = 0;
+      if (!n[i][j].IsScalar() || !parseDouble(n[i][j].Scalar(), &v) || !std::isfinite(v) ||
+          v < range.min || v > range.max) {
+        throw error(item, "expected " + describeRange(range) + " at position " + std::to_string(j) +
+                              ", found '" +
+                              (n[i][j].IsScalar() ? n[i][j].Scalar() : typeName(n[i][j])) + "'");
+      }
+      row.push_back(v);
+    }
+    rows.push_back(row);
+  }
+  record(key, std::to_string(rows.size()) + " rows", false);
+  return rows;
+}
+
 std::vector<std::string> ConfigNode::getStrings(const std::string& key) const {
   markUsed(key);
   if (!has(key)) throw missing(key, "a list of strings");

@@ -91,6 +91,9 @@ class ConfigNode {
   std::vector<double> getDoubles(const std::string& key, size_t expected_size,
                                  InRange range = {}) const;
   std::vector<std::string> getStrings(const std::string& key) const;
+  // A list of fixed-length rows of numbers, e.g. waypoints [[x, y], ...].
+  std::vector<std::vector<double>> getDoubleRows(const std::string& key, size_t row_size,
+                                                 InRange range = {}) const;
 
   // Optional scalars: the documented default when the key is absent; a key
   // that is present is validated exactly like the required form.

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <stdexcept>
 
 #include "eval/errors.hpp"
 
@@ -12,6 +13,7 @@ std::optional<AlignMode> parseAlignMode(const std::string& word) {
   if (word == "se2") return AlignMode::kSE2;
   if (word == "se3") return AlignMode::kSE3;
   if (word == "sim3") return AlignMode::kSim3;
+  if (word == "origin") return AlignMode::kOrigin;
   return std::nullopt;
 }
 
@@ -25,6 +27,8 @@ std::string toString(AlignMode mode) {
       return "se3";
     case AlignMode::kSim3:
       return "sim3";
+    case AlignMode::kOrigin:
+      return "origin";
   }
   return "?";
 }
@@ -51,9 +55,18 @@ double Similarity::yaw() const {
   return std::atan2(x.y(), x.x());
 }
 
+Similarity alignOrigin(const StampedPose& est_first, const StampedPose& ref_first) {
+  const Eigen::Isometry3d t = ref_first.isometry() * est_first.isometry().inverse();
+  Similarity out;
+  out.R = t.linear();
+  out.t = t.translation();
+  return out;
+}
+
 std::size_t minPairsFor(AlignMode mode) {
   switch (mode) {
     case AlignMode::kNone:
+    case AlignMode::kOrigin:
       return 1;
     case AlignMode::kSE2:
       return 2;
@@ -75,6 +88,9 @@ Similarity alignPositions(const std::vector<Eigen::Vector3d>& est,
   }
   Similarity out;
   if (mode == AlignMode::kNone) return out;
+  if (mode == AlignMode::kOrigin) {
+    throw std::logic_error("origin alignment needs orientations: use alignOrigin()");
+  }
 
   if (mode == AlignMode::kSE2) {
     // Planar Kabsch: with centred a_i (estimate) and b_i (reference) in the

@@ -7,6 +7,10 @@
 //         robot's frames differ by a floor-plane motion only;
 //   se3   rotation and translation (evaluate_ate.py, evo -a);
 //   sim3  rotation, translation and scale (evo -as; monocular estimates).
+//   origin  the rigid motion that puts the estimate's first associated pose
+//         on the reference's (evo --align_origin): a dead-reckoned path
+//         started where the robot really started, as in the vSLAM paper's
+//         Figs. 7 and 9; not a least-squares fit.
 
 #include <Eigen/Geometry>
 #include <optional>
@@ -17,7 +21,7 @@
 
 namespace vslam::eval {
 
-enum class AlignMode { kNone, kSE2, kSE3, kSim3 };
+enum class AlignMode { kNone, kSE2, kSE3, kSim3, kOrigin };
 
 std::optional<AlignMode> parseAlignMode(const std::string& word);
 std::string toString(AlignMode mode);
@@ -34,6 +38,9 @@ struct Similarity {
   double rotationAngle() const;  // radians, of R
   double yaw() const;            // radians, heading change of R's x axis about z
 };
+
+// ref_first * est_first^-1: maps the estimate's first pose onto the reference's.
+Similarity alignOrigin(const StampedPose& est_first, const StampedPose& ref_first);
 
 // Minimum number of associated poses each mode needs.
 std::size_t minPairsFor(AlignMode mode);

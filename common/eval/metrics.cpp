@@ -69,7 +69,9 @@ AteResult computeAte(const Trajectory& ref, const Trajectory& est, double offset
     est_p.push_back(est.poses[m.est].position);
     ref_p.push_back(ref.poses[m.ref].position);
   }
-  r.alignment = alignPositions(est_p, ref_p, mode);
+  r.alignment = mode == AlignMode::kOrigin ? alignOrigin(est.poses[r.matches.front().est],
+                                                         ref.poses[r.matches.front().ref])
+                                           : alignPositions(est_p, ref_p, mode);
   r.errors.reserve(r.matches.size());
   for (std::size_t i = 0; i < est_p.size(); ++i) {
     r.errors.push_back((r.alignment.apply(est_p[i]) - ref_p[i]).norm());

@@ -26,7 +26,7 @@ WaypointDriver::WaypointDriver(const MotionParams& params) : params_(params) {
 }
 
 bool WaypointDriver::advance(const Pose2& current, double dt, Pose2* step) {
-  constexpr double kArrived = 0.01;  // m
+  constexpr double kArrived = 0.01;       // m
   constexpr double kStartDriving = 0.03;  // rad: aligned enough to drive
   constexpr double kStopDriving = 0.35;   // rad: so far off that it turns in place again
   while (next_ < route_.size() &&

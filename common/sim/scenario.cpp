@@ -62,15 +62,29 @@ Scenario Scenario::load(const ConfigNode& node) {
   mp.speed_mps = m.getDouble("speed_mps", 0.3, InRange{0.01, 2.0});
   mp.turn_rate_rps = degToRad(m.getDouble("turn_rate_dps", 45.0, InRange{1, 360}));
   mp.robot_radius_m = m.getDouble("robot_radius_m", 0.2, InRange{0.05, 1.0});
-  if (mode != "trajectory") mp.start = readPose(m, "start");
+  if (mode != "trajectory" && m.has("start")) {
+    mp.start = readPose(m, "start");
+    mp.has_start = true;
+  } else {
+    m.markUsed("start");
+  }
   if (mode == "waypoints") {
     mp.mode = MotionMode::kWaypoints;
-    for (const ConfigNode& w : m.sequence("waypoints")) {
-      mp.waypoints.emplace_back(w.getDouble("x", InRange{-1000, 1000}),
-                                w.getDouble("y", InRange{-1000, 1000}));
-      w.requireAllKeysUsed();
+    if (m.has("route") == m.has("waypoints")) {
+      throw m.error(
+          "waypoints",
+          "give either `waypoints` ([[x, y], ...]) or `route` (a route of the world file)");
     }
-    if (mp.waypoints.size() < 2) throw m.error("waypoints", "at least two waypoints are needed");
+    if (m.has("route")) {
+      mp.route = m.getString("route");
+    } else {
+      for (const auto& row : m.getDoubleRows("waypoints", 2, InRange{-1000, 1000})) {
+        mp.waypoints.emplace_back(row[0], row[1]);
+      }
+      if (mp.waypoints.size() < 2) throw m.error("waypoints", "at least two waypoints are needed");
+    }
+    m.markUsed("route");
+    m.markUsed("waypoints");
     mp.laps = static_cast<int>(m.getInt("laps", 1, InRange{1, 1000}));
   } else if (mode == "random") {
     mp.mode = MotionMode::kRandom;

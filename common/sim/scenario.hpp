@@ -24,10 +24,12 @@ enum class MotionMode {
 struct MotionParams {
   MotionMode mode = MotionMode::kWaypoints;
   Pose2 start;                 // world frame; theta radians
+  bool has_start = false;      // otherwise the world file's `start`
   double speed_mps = 0.3;      // forward speed when driving
   double turn_rate_rps = 0.8;  // rotation speed when turning in place, rad/s
   // waypoints
   std::vector<Eigen::Vector2d> waypoints;
+  std::string route;  // or a named route of the world file
   int laps = 1;
   // random
   double lookahead_m = 0.5;     // obstacle look-ahead while driving

@@ -83,6 +83,27 @@ Simulator::Simulator(const Scenario& scenario, const config::RobotConfig& robot,
       odometry_(scenario.odometry, mixSeed(scenario.seed, 1)),
       rng_(mixSeed(scenario.seed, 2)) {
   world_ = std::make_unique<world::World>(world::World::loadFile(scenario_.world_file));
+  // Route and start may come from the world file.
+  MotionParams& motion = scenario_.motion;
+  if (motion.mode == MotionMode::kWaypoints && !motion.route.empty()) {
+    std::string known;
+    for (const auto& route : world_->routes) {
+      if (route.name == motion.route) motion.waypoints = route.waypoints;
+      known += (known.empty() ? "" : ", ") + route.name;
+    }
+    if (motion.waypoints.size() < 2) {
+      throw std::runtime_error(scenario_.file.string() + ": motion.route '" + motion.route +
+                               "' is not a route of " + scenario_.world_file.string() +
+                               " (routes: " + (known.empty() ? "none" : known) + ")");
+    }
+  }
+  if (motion.mode != MotionMode::kTrajectory && !motion.has_start) {
+    if (!world_->has_start) {
+      throw std::runtime_error(scenario_.file.string() + ": motion.start is not set and " +
+                               scenario_.world_file.string() + " has no `start`");
+    }
+    motion.start = {world_->start.x(), world_->start.y(), world_->start.z()};
+  }
   const world::World* w = world_.get();
   const auto is_free = [w](double x, double y, double r) { return w->isFree(x, y, r); };
   driver_ = makeDriver(scenario_.motion, is_free, mixSeed(scenario_.seed, 3));
