@@ -7,52 +7,54 @@
 #include "util/angles.hpp"
 
 namespace vslam::config {
-namespace {
-
-// Reads the OpenCV calibration file format (as written by
-// cv::calibrateCamera examples): image_width, image_height, camera_matrix,
-// distortion_coefficients.
-void readOpenCvCalibration(const ConfigNode& node, const std::string& key, CameraConfig* cam) {
-  const std::string file = cam->calibration_file.string();
+CameraIntrinsics readOpenCvCalibration(const std::filesystem::path& file) {
+  const std::string name = file.string();
+  auto fail = [&](const std::string& what, const std::string& problem) {
+    return ConfigError(name, what, problem);
+  };
+  if (!std::filesystem::is_regular_file(file)) throw fail("", "no such calibration file");
   cv::FileStorage fs;
   try {
-    fs.open(file, cv::FileStorage::READ);
+    fs.open(name, cv::FileStorage::READ);
   } catch (const cv::Exception& e) {
-    throw node.error(key, "cannot parse OpenCV calibration file " + file + ": " + e.what());
+    throw fail("", std::string("not an OpenCV calibration file: ") + e.what());
   }
-  if (!fs.isOpened()) throw node.error(key, "cannot open OpenCV calibration file " + file);
-  auto fail = [&](const std::string& what) {
-    return ConfigError(file, what, "in the calibration of camera '" + cam->name + "'");
-  };
+  if (!fs.isOpened()) throw fail("", "cannot be read as an OpenCV calibration file");
+  CameraIntrinsics c;
   cv::Mat k, d;
-  if (fs["image_width"].empty() || fs["image_height"].empty()) {
-    throw fail("image_width/image_height missing");
+  try {
+    if (fs["image_width"].empty() || fs["image_height"].empty()) {
+      throw fail("image_width", "image_width/image_height missing");
+    }
+    c.width = static_cast<int>(fs["image_width"]);
+    c.height = static_cast<int>(fs["image_height"]);
+    fs["camera_matrix"] >> k;
+    if (!fs["distortion_coefficients"].empty()) fs["distortion_coefficients"] >> d;
+  } catch (const cv::Exception& e) {
+    throw fail("", std::string("malformed calibration: ") + e.what());
   }
-  cam->width = static_cast<int>(fs["image_width"]);
-  cam->height = static_cast<int>(fs["image_height"]);
-  fs["camera_matrix"] >> k;
-  fs["distortion_coefficients"] >> d;
-  if (k.rows != 3 || k.cols != 3) throw fail("camera_matrix must be a 3x3 matrix");
+  if (k.rows != 3 || k.cols != 3) throw fail("camera_matrix", "must be a 3x3 matrix");
   k.convertTo(k, CV_64F);
-  cam->fx = k.at<double>(0, 0);
-  cam->fy = k.at<double>(1, 1);
-  cam->cx = k.at<double>(0, 2);
-  cam->cy = k.at<double>(1, 2);
-  if (cam->width <= 0 || cam->height <= 0 || cam->width > 8192 || cam->height > 8192) {
-    throw fail("image_width/image_height must be in 1..8192");
+  c.fx = k.at<double>(0, 0);
+  c.fy = k.at<double>(1, 1);
+  c.cx = k.at<double>(0, 2);
+  c.cy = k.at<double>(1, 2);
+  if (c.width <= 0 || c.height <= 0 || c.width > 8192 || c.height > 8192) {
+    throw fail("image_width", "image_width/image_height must be in 1..8192");
   }
-  if (!(cam->fx > 0) || !(cam->fy > 0)) throw fail("camera_matrix focal lengths must be > 0");
-  cam->distortion.clear();
+  if (!(c.fx > 0) || !(c.fy > 0)) throw fail("camera_matrix", "focal lengths must be > 0");
   if (!d.empty()) {
     d.convertTo(d, CV_64F);
     const size_t n = d.total();
     static const std::set<size_t> kValid = {4, 5, 8, 12, 14};
-    if (!kValid.count(n)) throw fail("distortion_coefficients must have 4, 5, 8, 12 or 14 entries");
-    for (size_t i = 0; i < n; ++i) cam->distortion.push_back(d.at<double>(static_cast<int>(i)));
+    if (!kValid.count(n)) {
+      throw fail("distortion_coefficients",
+                 "must have 4, 5, 8, 12 or 14 entries, has " + std::to_string(n));
+    }
+    for (size_t i = 0; i < n; ++i) c.distortion.push_back(d.at<double>(static_cast<int>(i)));
   }
+  return c;
 }
-
-}  // namespace
 
 Eigen::Matrix3d robotRotationCamera(double yaw_rad, double pitch_rad, double roll_rad) {
   // Columns: the camera's x (right), y (down), z (optical axis) in the robot
@@ -78,7 +80,14 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
     if (!names.insert(cam.name).second)
       throw c.error("name", "duplicate camera '" + cam.name + "'");
     cam.calibration_file = c.getPath("calibration");
-    readOpenCvCalibration(c, "calibration", &cam);
+    const CameraIntrinsics k = readOpenCvCalibration(cam.calibration_file);
+    cam.width = k.width;
+    cam.height = k.height;
+    cam.fx = k.fx;
+    cam.fy = k.fy;
+    cam.cx = k.cx;
+    cam.cy = k.cy;
+    cam.distortion = k.distortion;
     cam.frame_rate_hz = c.getDouble("frame_rate_hz", InRange{0.1, 1000});
     const auto t = c.getDoubles("position_m", 3, InRange{-10, 10});
     const ConfigNode o = c.child("orientation_deg");

@@ -13,6 +13,19 @@
 
 namespace vslam::config {
 
+// Pinhole intrinsics as in OpenCV's calibration file format.
+struct CameraIntrinsics {
+  int width = 0;                          // pixels
+  int height = 0;                         // pixels
+  double fx = 0, fy = 0, cx = 0, cy = 0;  // pixels
+  std::vector<double> distortion;         // OpenCV order k1 k2 p1 p2 [k3 ...]
+};
+
+// Reads image_width, image_height, camera_matrix and distortion_coefficients
+// from an OpenCV calibration file (as written by OpenCV's calibration
+// sample) and validates them; ConfigError names the file and the field.
+CameraIntrinsics readOpenCvCalibration(const std::filesystem::path& file);
+
 struct CameraConfig {
   std::string name;  // e.g. "forward"
   std::filesystem::path calibration_file;

@@ -13,6 +13,7 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/messages.hpp"
 #include "config/robot_config.hpp"
 #include "eval/errors.hpp"
 #include "eval/tum_file.hpp"
@@ -72,57 +73,13 @@ std::vector<ImageEntry> readImageList(const fs::path& file) {
   return out;
 }
 
-struct Calibration {
-  cv::Size size;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::vector<double> distortion;
-};
-
-Calibration readCalibration(const fs::path& file) {
-  const std::string name = file.string();
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw DataError(name + ": no such file (calibration)");
-  cv::FileStorage fs_in;
+// The shared OpenCV calibration reader, with its errors as data errors.
+config::CameraIntrinsics readCalibration(const fs::path& file) {
   try {
-    fs_in.open(name, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw DataError(name + ": not an OpenCV calibration file: " + e.what());
+    return config::readOpenCvCalibration(file);
+  } catch (const config::ConfigError& e) {
+    throw DataError(e.what());
   }
-  if (!fs_in.isOpened()) throw DataError(name + ": cannot be read as an OpenCV calibration file");
-  Calibration c;
-  try {
-    if (fs_in["image_width"].empty() || fs_in["image_height"].empty()) {
-      throw DataError(name + ": image_width/image_height missing");
-    }
-    c.size = {static_cast<int>(fs_in["image_width"]), static_cast<int>(fs_in["image_height"])};
-    cv::Mat k, d;
-    fs_in["camera_matrix"] >> k;
-    if (k.rows != 3 || k.cols != 3) throw DataError(name + ": camera_matrix must be a 3x3 matrix");
-    k.convertTo(k, CV_64F);
-    c.fx = k.at<double>(0, 0);
-    c.fy = k.at<double>(1, 1);
-    c.cx = k.at<double>(0, 2);
-    c.cy = k.at<double>(1, 2);
-    if (!fs_in["distortion_coefficients"].empty()) {
-      fs_in["distortion_coefficients"] >> d;
-      d.convertTo(d, CV_64F);
-      for (int i = 0; i < static_cast<int>(d.total()); ++i) c.distortion.push_back(d.at<double>(i));
-    }
-  } catch (const cv::Exception& e) {
-    throw DataError(name + ": malformed calibration: " + e.what());
-  }
-  if (c.size.width < 1 || c.size.height < 1) {
-    throw DataError(name + ": image_width/image_height must be positive");
-  }
-  if (!(c.fx > 0) || !(c.fy > 0))
-    throw DataError(name + ": camera_matrix focal lengths must be > 0");
-  const std::size_t n = c.distortion.size();
-  if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
-    throw DataError(name +
-                    ": distortion_coefficients must have 0, 4, 5, 8, 12 or 14 entries, has " +
-                    std::to_string(n));
-  }
-  return c;
 }
 
 // Reads one listed image as 8-bit gray or BGR.
@@ -253,17 +210,18 @@ ImportStats importTumDataset(const ImportOptions& o) {
   const Trajectory gt = readTumFile(gt_file);
   std::optional<Trajectory> odo;
   if (o.odometry) odo = readTumFile(*o.odometry);
-  const Calibration calib = readCalibration(o.calibration);
+  const config::CameraIntrinsics calib = readCalibration(o.calibration);
+  const cv::Size calib_size(calib.width, calib.height);
 
   // Sizes: the first image sets the source size; the calibration must refer
   // to the written size or to the source size (then it is rescaled).
   const cv::Mat first = loadImage(image_dir, list_file, images.front());
   stats.source_size = first.size();
   stats.image_size = o.resize.value_or(stats.source_size);
-  Calibration out_calib = calib;
-  if (calib.size != stats.image_size) {
-    if (calib.size != stats.source_size) {
-      throw DataError(o.calibration.string() + ": is for " + sizeText(calib.size) +
+  config::CameraIntrinsics out_calib = calib;
+  if (calib_size != stats.image_size) {
+    if (calib_size != stats.source_size) {
+      throw DataError(o.calibration.string() + ": is for " + sizeText(calib_size) +
                       " images, but the images are " + sizeText(stats.source_size) +
                       (o.resize ? " (resized to " + sizeText(*o.resize) + ")" : std::string()));
     }
@@ -274,7 +232,8 @@ ImportStats importTumDataset(const ImportOptions& o) {
     out_calib.fy *= sy;
     out_calib.cx = (calib.cx + 0.5) * sx - 0.5;
     out_calib.cy = (calib.cy + 0.5) * sy - 0.5;
-    out_calib.size = stats.image_size;
+    out_calib.width = stats.image_size.width;
+    out_calib.height = stats.image_size.height;
   }
 
   if (o.frame_rate_hz > 0) {
@@ -294,7 +253,19 @@ ImportStats importTumDataset(const ImportOptions& o) {
                                                         degToRad(o.camera_yaw_pitch_roll_deg[2]));
   robot_T_camera.translation() = o.camera_position_m;
   const Eigen::Isometry3d camera_T_robot = robot_T_camera.inverse();
-  const Eigen::Quaterniond robot_q_camera(robot_T_camera.linear());
+  config::CameraConfig camera;
+  camera.name = o.camera;
+  camera.width = out_calib.width;
+  camera.height = out_calib.height;
+  camera.fx = out_calib.fx;
+  camera.fy = out_calib.fy;
+  camera.cx = out_calib.cx;
+  camera.cy = out_calib.cy;
+  camera.distortion = out_calib.distortion;
+  camera.frame_rate_hz = stats.frame_rate_hz;
+  camera.robot_T_camera = robot_T_camera;
+  camera.image_channel = stats.image_channel;
+  camera.calibration_channel = stats.calibration_channel;
 
   // The schedule of events.
   std::vector<Pending> schedule;
@@ -330,24 +301,7 @@ ImportStats importTumDataset(const ImportOptions& o) {
     for (const Pending& ev : schedule) {
       switch (ev.kind) {
         case Kind::kCalibration: {
-          vslam::camera_calibration_t m{};
-          m.utime = ev.utime;
-          m.camera = o.camera;
-          m.image_channel = stats.image_channel;
-          m.width = out_calib.size.width;
-          m.height = out_calib.size.height;
-          m.frame_rate = stats.frame_rate_hz;
-          m.fx = out_calib.fx;
-          m.fy = out_calib.fy;
-          m.cx = out_calib.cx;
-          m.cy = out_calib.cy;
-          m.num_distortion = static_cast<int8_t>(out_calib.distortion.size());
-          m.distortion = out_calib.distortion;
-          for (int i = 0; i < 3; ++i) m.robot_t_camera[i] = o.camera_position_m[i];
-          m.robot_q_camera[0] = robot_q_camera.w();
-          m.robot_q_camera[1] = robot_q_camera.x();
-          m.robot_q_camera[2] = robot_q_camera.y();
-          m.robot_q_camera[3] = robot_q_camera.z();
+          const vslam::camera_calibration_t m = bus::calibrationMessage(camera, ev.utime);
           log.write(ev.utime, stats.calibration_channel, encode(m));
           ++stats.calibration;
           break;

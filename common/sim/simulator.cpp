@@ -9,6 +9,8 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/messages.hpp"
+
 namespace vslam::sim {
 namespace {
 
@@ -200,28 +202,8 @@ void Simulator::movePeople(double dt) {
 void Simulator::emitCalibration(EventSink& sink, Utime t) {
   std::vector<uint8_t> buffer;
   for (const auto& cam : cameras_) {
-    const config::CameraConfig& c = *cam->config;
-    vslam::camera_calibration_t m{};
-    m.utime = t;
-    m.camera = c.name;
-    m.image_channel = c.image_channel;
-    m.width = c.width;
-    m.height = c.height;
-    m.frame_rate = c.frame_rate_hz;
-    m.fx = c.fx;
-    m.fy = c.fy;
-    m.cx = c.cx;
-    m.cy = c.cy;
-    m.distortion = c.distortion;
-    m.num_distortion = static_cast<int8_t>(c.distortion.size());
-    const Eigen::Vector3d tr = c.robot_T_camera.translation();
-    const Eigen::Quaterniond q(c.robot_T_camera.linear());
-    for (int i = 0; i < 3; ++i) m.robot_t_camera[i] = tr[i];
-    m.robot_q_camera[0] = q.w();
-    m.robot_q_camera[1] = q.x();
-    m.robot_q_camera[2] = q.y();
-    m.robot_q_camera[3] = q.z();
-    emit(sink, t, c.calibration_channel, m, buffer);
+    emit(sink, t, cam->config->calibration_channel, bus::calibrationMessage(*cam->config, t),
+         buffer);
   }
 }
 

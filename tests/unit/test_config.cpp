@@ -223,7 +223,7 @@ TEST(RobotConfig, BadCalibrationAndDuplicatesAreRejected) {
     vslam::config::RobotConfig::loadFile(dir / "robot.yaml");
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("camera_matrix must be a 3x3"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("camera_matrix: must be a 3x3"), std::string::npos)
         << e.what();
   }
   writeFile(
