@@ -501,8 +501,14 @@ void Renderer::Impl::drawSurface(const Prepared& p, const Eigen::Matrix3d& R_cw,
     xmin = std::min(xmin, s.x());
     xmax = std::max(xmax, s.x());
   }
-  const int row0 = std::max(0, static_cast<int>(std::ceil(ymin)));
-  const int row1 = std::min(sh - 1, static_cast<int>(std::ceil(ymax)) - 1);
+  // Coverage is conservative by kEps samples: a sample exactly on an edge
+  // shared by two polygons (common with axis-aligned walls seen from round
+  // poses, and at T-junctions such as a floor edge beside a wall split at a
+  // door) is covered by both and the depth test decides, instead of falling
+  // into a crack when the two intercepts differ in the last bit.
+  constexpr double kEps = 1e-4;
+  const int row0 = std::max(0, static_cast<int>(std::ceil(ymin - kEps)));
+  const int row1 = std::min(sh - 1, static_cast<int>(std::floor(ymax + kEps)));
   if (row0 > row1 || xmax < -0.5 || xmin > sw - 0.5) return;
 
   // Plane in the camera frame, oriented so that N.p = dd > 0.
@@ -546,14 +552,14 @@ void Renderer::Impl::drawSurface(const Prepared& p, const Eigen::Matrix3d& R_cw,
       const Eigen::Vector2d* b = &screen[(i + 1) % nv];
       if (a->y() == b->y()) continue;
       if (a->y() > b->y()) std::swap(a, b);  // same arithmetic for a shared edge either way
-      if (Y < a->y() || Y >= b->y()) continue;
+      if (Y < a->y() - kEps || Y > b->y() + kEps) continue;
       const double x = a->x() + (Y - a->y()) * (b->x() - a->x()) / (b->y() - a->y());
       xl = std::min(xl, x);
       xr = std::max(xr, x);
     }
     if (xl > xr) continue;
-    const int c0 = std::max(0, static_cast<int>(std::ceil(std::max(xl, -1.0))));
-    const int c1 = std::min(sw - 1, static_cast<int>(std::ceil(std::min(xr, sw + 1.0))) - 1);
+    const int c0 = std::max(0, static_cast<int>(std::ceil(std::max(xl, -2.0) - kEps)));
+    const int c1 = std::min(sw - 1, static_cast<int>(std::floor(std::min(xr, sw + 2.0) + kEps)));
     if (c0 > c1) continue;
     float* zr = zbuf.data() + static_cast<size_t>(row) * sw;
     int32_t* ir = ids.data() + static_cast<size_t>(row) * sw;

@@ -25,6 +25,7 @@ constexpr double kDegToRad = M_PI / 180.0;
 constexpr double kMinEdgeM = 0.01;         // shortest polygon edge
 constexpr double kOnWallTolM = 0.01;       // a door this close to a wall line is on it
 constexpr double kPictureOffsetM = 0.005;  // pictures float this far off their wall
+constexpr double kTableTopM = 0.04;        // top thickness of a box with legs
 // Uniform grey levels of a textureless room (0..1), unless the material gives one.
 constexpr float kPlainWall = 0.75f, kPlainFloor = 0.55f, kPlainCeiling = 0.85f;
 
@@ -216,6 +217,7 @@ class Yn {
 struct Material {
   int texture = -1;
   double scale_m = 1.0;
+  double height_m = 1.0;  // of one texture image on the surface
   float albedo = 0.5f;
   float gain = 1.0f;
   bool uniform() const { return texture < 0; }
@@ -276,14 +278,28 @@ class Loader {
 
  private:
   // --- Textures and materials ---
-  int texture(const Yn& where, const std::string& ref, int rotate_deg) {
-    const std::string key = ref + "@" + std::to_string(rotate_deg);
+  int texture(const Yn& where, const std::string& ref, int rotate_deg,
+              const std::optional<Yn>& crop = std::nullopt) {
+    std::vector<double> rect;
+    if (crop) rect = crop->numbers(4);
+    std::string key = ref + "@" + std::to_string(rotate_deg);
+    for (double v : rect) key += "," + fmt(v);
     if (auto it = texture_index_.find(key); it != texture_index_.end()) return it->second;
     cv::Mat img;
     try {
       img = loadTexture(ref, doc_.base_dir);
     } catch (const std::runtime_error& e) {
       where.fail(e.what());
+    }
+    if (crop) {
+      const cv::Rect r(static_cast<int>(rect[0]), static_cast<int>(rect[1]),
+                       static_cast<int>(rect[2]), static_cast<int>(rect[3]));
+      if (r.width < 2 || r.height < 2 || r.x < 0 || r.y < 0 || r.x + r.width > img.cols ||
+          r.y + r.height > img.rows) {
+        crop->fail("crop [x, y, width, height] must lie inside the " + std::to_string(img.cols) +
+                   " x " + std::to_string(img.rows) + " image");
+      }
+      img = img(r).clone();
     }
     if (rotate_deg == 90) cv::rotate(img, img, cv::ROTATE_90_CLOCKWISE);
     if (rotate_deg == 180) cv::rotate(img, img, cv::ROTATE_180);
@@ -295,7 +311,7 @@ class Loader {
   }
 
   Material inlineMaterial(const Yn& n) {
-    n.allowKeys({"texture", "scale_m", "rotate_deg", "albedo", "gain"});
+    n.allowKeys({"texture", "scale_m", "rotate_deg", "crop", "albedo", "gain"});
     Material m;
     if (auto g = n.optional("gain")) m.gain = static_cast<float>(g->number(0.0, 10.0));
     if (n.has("texture")) {
@@ -309,12 +325,15 @@ class Loader {
         if (v != 0 && v != 90 && v != 180 && v != 270) r->fail("expected 0, 90, 180 or 270");
         rotate = static_cast<int>(v);
       }
-      m.texture = texture(ref, ref.text(), rotate);
+      m.texture = texture(ref, ref.text(), rotate, n.optional("crop"));
       m.scale_m = n.child("scale_m").positive();
+      const cv::Mat& img = world_.textures[static_cast<size_t>(m.texture)];
+      m.height_m = m.scale_m * img.rows / img.cols;
     } else if (n.has("albedo")) {
       m.albedo = static_cast<float>(n.child("albedo").number(0.0, 1.0));
       if (n.has("scale_m")) n.child("scale_m").fail("scale_m needs a texture");
       if (n.has("rotate_deg")) n.child("rotate_deg").fail("rotate_deg needs a texture");
+      if (n.has("crop")) n.child("crop").fail("crop needs a texture");
     } else {
       n.fail("a material needs 'texture' (with 'scale_m') or 'albedo'");
     }
@@ -560,12 +579,12 @@ class Loader {
           const Eigen::Vector3d zlo(0, 0, lo), zhi(0, 0, hi);
           Surface q = inward ? quad(p1 + zlo, p0 + zlo, p0 + zhi, p1 + zhi, mats[e], room)
                              : quad(p0 + zlo, p1 + zlo, p1 + zhi, p0 + zhi, mats[e], room);
-          // Columns continue along the outline (seen from the visible side),
-          // the image top at the top of the wall.
+          // Columns continue along the outline (seen from the visible side);
+          // the image stands on the floor, where a low camera looks.
           const Eigen::Vector3d u = inward ? -dir3 : dir3;
           q.texture_u = u;
           q.texture_v = -Eigen::Vector3d::UnitZ();
-          q.texture_origin = a3 + Eigen::Vector3d(0, 0, top) - perimeter * dir3;
+          q.texture_origin = a3 + Eigen::Vector3d(0, 0, z0 + mats[e].height_m) - perimeter * dir3;
           world_.surfaces.push_back(q);
         }
       }
@@ -585,16 +604,47 @@ class Loader {
   int roomOf(const Eigen::Vector2d& p) const { return world_.roomIndexAt(p.x(), p.y()); }
 
   // --- Furniture, solids, pictures ---
+  // Faces of an upright box in BoxFace order, plus a bottom when it floats
+  // (a low camera looks up at wall cabinets and table tops).
+  void addBox(const Eigen::Vector2d& centre, double z0, const Eigen::Vector3d& size_xyz, double yaw,
+              const std::array<Material, 6>& mats, bool bottom, int room) {
+    std::vector<Surface> faces =
+        makeBox(Eigen::Vector3d(centre.x(), centre.y(), z0), size_xyz, yaw, -1, 1.0);
+    if (bottom) {
+      Surface b = faces[kBoxTop];
+      const Eigen::Vector3d h(0, 0, size_xyz.z());
+      b.corners = {faces[kBoxTop].corners[3] - h, faces[kBoxTop].corners[2] - h,
+                   faces[kBoxTop].corners[1] - h, faces[kBoxTop].corners[0] - h};
+      faces.push_back(b);
+    }
+    for (size_t f = 0; f < faces.size(); ++f) {
+      const Material& m = mats[f];
+      faces[f].texture = m.texture;
+      faces[f].texture_scale_m = m.scale_m;
+      faces[f].albedo = m.albedo;
+      faces[f].gain = m.gain;
+      faces[f].room = room;
+      world_.surfaces.push_back(faces[f]);
+    }
+  }
+
   void parseBox(const Yn& n) {
-    n.allowKeys({"name", "centre", "size", "facing_deg", "elevation", "material", "faces"});
+    n.allowKeys({"name", "centre", "size", "facing_deg", "elevation", "legs", "material", "faces"});
     if (auto nm = n.optional("name")) nm->text();
     const Eigen::Vector2d centre = n.child("centre").vec2();
     const Yn size_node = n.child("size");
     const Eigen::Vector3d size = size_node.vec3();
     if (size.minCoeff() <= 0.0) size_node.fail("box sizes must be > 0");
-    double facing = 0.0, elevation = 0.0;
+    double facing = 0.0, elevation = 0.0, legs = 0.0;
     if (auto f = n.optional("facing_deg")) facing = f->number() * kDegToRad;
     if (auto e = n.optional("elevation")) elevation = e->number(0.0);
+    if (auto l = n.optional("legs")) {
+      legs = l->positive();
+      if (2 * legs >= std::min(size.x(), size.y()) || size.z() <= kTableTopM) {
+        l->fail("legs must be thinner than half the box and the box taller than its " +
+                fmt(kTableTopM) + " m top");
+      }
+    }
     const int room = roomOf(centre);
     if (room < 0) n.child("centre").fail("box centre is outside every room");
     if (elevation + size.z() > world_.rooms[static_cast<size_t>(room)].height_m + 1e-9) {
@@ -603,39 +653,59 @@ class Loader {
     }
     std::optional<Material> all;
     if (auto m = n.optional("material")) all = material(*m);
-    std::array<std::optional<Material>, 5> face_mats;
+    std::array<std::optional<Material>, 6> given;
     if (auto faces = n.optional("faces")) {
-      faces->allowKeys({"front", "back", "left", "right", "top"});
-      const std::array<std::pair<const char*, BoxFace>, 5> names = {{{"front", kBoxPlusX},
-                                                                     {"back", kBoxMinusX},
-                                                                     {"left", kBoxPlusY},
-                                                                     {"right", kBoxMinusY},
-                                                                     {"top", kBoxTop}}};
+      faces->allowKeys({"front", "back", "left", "right", "top", "bottom"});
+      const std::array<std::pair<const char*, int>, 6> names = {{{"front", kBoxPlusX},
+                                                                 {"back", kBoxMinusX},
+                                                                 {"left", kBoxPlusY},
+                                                                 {"right", kBoxMinusY},
+                                                                 {"top", kBoxTop},
+                                                                 {"bottom", 5}}};
       for (const auto& [name, face] : names) {
-        if (auto f = faces->optional(name)) face_mats[face] = material(*f);
+        if (auto f = faces->optional(name)) given[static_cast<size_t>(face)] = material(*f);
       }
     }
-    for (size_t f = 0; f < 5; ++f) {
-      if (!face_mats[f] && !all) {
-        n.fail("box needs 'material' (or all five 'faces': front, back, left, right, top)");
+    std::array<Material, 6> mats;
+    for (size_t f = 0; f < 6; ++f) {
+      if (given[f]) {
+        mats[f] = *given[f];
+      } else if (all) {
+        mats[f] = *all;
+      } else if (f == 5 && given[kBoxTop]) {
+        mats[f] = *given[kBoxTop];
+      } else {
+        n.fail("box needs 'material' (or all its 'faces': front, back, left, right, top)");
       }
     }
     // The front faces `facing`: box x = depth (towards the front), y = width.
-    std::vector<Surface> faces =
-        makeBox(Eigen::Vector3d(centre.x(), centre.y(), elevation),
-                Eigen::Vector3d(size.y(), size.x(), size.z()), facing, -1, 1.0);
-    for (size_t f = 0; f < faces.size(); ++f) {
-      const Material& m = face_mats[f] ? *face_mats[f] : *all;
-      faces[f].texture = m.texture;
-      faces[f].texture_scale_m = m.scale_m;
-      faces[f].albedo = m.albedo;
-      faces[f].gain = m.gain;
-      faces[f].room = room;
-      world_.surfaces.push_back(faces[f]);
+    const Eigen::Vector3d size_xyz(size.y(), size.x(), size.z());
+    if (legs <= 0.0) {
+      addBox(centre, elevation, size_xyz, facing, mats, elevation > 0.0, room);
+    } else {
+      // A table: a top slab on four square legs (of the `material`, else the front's).
+      const double top_z = elevation + size.z() - kTableTopM;
+      addBox(centre, top_z, Eigen::Vector3d(size_xyz.x(), size_xyz.y(), kTableTopM), facing, mats,
+             true, room);
+      std::array<Material, 6> leg_mats;
+      leg_mats.fill(all ? *all : mats[kBoxPlusX]);
+      const double c = std::cos(facing), s = std::sin(facing);
+      for (int i : {-1, 1}) {
+        for (int j : {-1, 1}) {
+          const double lx = i * (0.5 * size_xyz.x() - 0.5 * legs);
+          const double ly = j * (0.5 * size_xyz.y() - 0.5 * legs);
+          const Eigen::Vector2d at = centre + Eigen::Vector2d(c * lx - s * ly, s * lx + c * ly);
+          addBox(at, elevation, Eigen::Vector3d(legs, legs, top_z - elevation), facing, leg_mats,
+                 elevation > 0.0, room);
+        }
+      }
     }
+    // Planning: the whole footprint is an obstacle (tables included).
+    const std::vector<Surface> outline =
+        makeBox(Eigen::Vector3d(centre.x(), centre.y(), 0.0), size_xyz, facing, -1, 1.0);
     geo::Polygon footprint;
     for (int i : {kBoxMinusY, kBoxPlusX, kBoxPlusY, kBoxMinusX}) {
-      footprint.push_back(faces[static_cast<size_t>(i)].corners[0].head<2>());
+      footprint.push_back(outline[static_cast<size_t>(i)].corners[0].head<2>());
     }
     if (geo::signedArea(footprint) < 0) std::reverse(footprint.begin(), footprint.end());
     world_.obstacles.push_back(footprint);

@@ -178,6 +178,37 @@ TEST(WorldFile, TexturelessRoomIsUniform) {
   }
 }
 
+TEST(WorldFile, TablesFloatingBoxesAndCrops) {
+  const std::string text = replaced(
+      kTwoRooms, "  - {name: table,",
+      "  - {name: shelf, centre: [5.5, 2.5], size: [0.6, 0.3, 0.5], elevation: 1.5,\n"
+      "     material: {texture: \"skimage:brick.png\", crop: [10, 20, 100, 50], scale_m: 0.5}}\n"
+      "  - {name: table,");
+  World w = World::loadString(replaced(text, "facing_deg: 90, material: paint}",
+                                       "facing_deg: 90, legs: 0.05, material: paint}"),
+                              "t.yaml");
+  ASSERT_EQ(w.textures.size(), 2u);
+  EXPECT_EQ(w.textures[1].cols, 100);  // the crop
+  EXPECT_EQ(w.textures[1].rows, 50);
+  // Count the box faces: the floating shelf has a bottom (6 faces); the
+  // table is a top slab with a bottom (6) on four legs (5 each).
+  int shelf = 0, table = 0, facing_down = 0;
+  for (const Surface& s : w.surfaces) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const auto& p : s.corners) c += p / 4;
+    const Eigen::Vector3d n = (s.corners[1] - s.corners[0]).cross(s.corners[3] - s.corners[0]);
+    if (c.x() > 5.1 && c.x() < 5.9 && c.z() > 1.0) ++shelf, facing_down += n.z() < 0;
+    if (c.x() < 2.0 && c.z() < 0.75) ++table;
+  }
+  EXPECT_EQ(shelf, 6);
+  EXPECT_EQ(facing_down, 1);
+  EXPECT_EQ(table, 26);
+  // Planning keeps the whole table footprint as an obstacle.
+  EXPECT_FALSE(w.isFree(1.0, 1.0, 0.1));
+  expectLoadError(replaced(text, "crop: [10, 20, 100, 50]", "crop: [10, 20, 600, 50]"),
+                  "boxes[0].material.crop", 21, "inside the 512 x 512 image");
+}
+
 TEST(WorldFile, TextureReferences) {
   EXPECT_EQ(resolveTexturePath("skimage:brick.png", "/x"),
             fs::path("/usr/lib/python3/dist-packages/skimage/data/brick.png"));
