@@ -117,13 +117,18 @@ struct TexCoord {
   float ax, ay;
 };
 
+// floor() for |v| < 2^31 without a libm call (baseline x86-64 has no SSE4.1 round).
+inline int floorInt(float v) {
+  const int i = static_cast<int>(v);
+  return i - (v < static_cast<float>(i));
+}
+
 inline TexCoord texCoord(const MipLevel& L, float s, float t) {
   const float x = s * L.sx - 0.5f, y = t * L.sy - 0.5f;
-  const float xf = std::floor(x), yf = std::floor(y);
-  const int xi = static_cast<int>(xf), yi = static_cast<int>(yf);
+  const int xi = floorInt(x), yi = floorInt(y);
   TexCoord c;
-  c.ax = x - xf;
-  c.ay = y - yf;
+  c.ax = x - static_cast<float>(xi);
+  c.ay = y - static_cast<float>(yi);
   c.x0 = xi & L.mask_x;
   c.x1 = (xi + 1) & L.mask_x;
   c.r0 = (yi & L.mask_y) << L.shift;
