@@ -331,6 +331,7 @@ struct Renderer::Impl {
   bool distorted = false;
   cv::Mat map1, map2;
   double map_error = 0.0;
+  size_t invalid_pixels = 0;
 
   // Visibility samples: factor x factor per pinhole pixel.
   int factor = 2;
@@ -413,13 +414,35 @@ void Renderer::Impl::setupCamera() {
       }
     }
     project(und, back);
+    // Pixels the lens model cannot be inverted at (a polynomial that folds
+    // over inside the image: no ray reaches them) stay background; a model
+    // that fails on more than a sliver of the image is an error.
+    constexpr double kMaxRoundTripPx = 0.05;
+    constexpr double kMaxInvalidFraction = 0.005;
     map_error = 0.0;
+    std::vector<bool> valid(n);
+    size_t invalid = 0;
     for (size_t i = 0; i < n; ++i) {
-      map_error = std::max(map_error, static_cast<double>(cv::norm(pix[i] - back[i])));
+      const double e = cv::norm(pix[i] - back[i]);
+      valid[i] = std::isfinite(e) && e < kMaxRoundTripPx && std::isfinite(und[i].x) &&
+                 std::isfinite(und[i].y);
+      if (valid[i]) {
+        map_error = std::max(map_error, e);
+      } else {
+        ++invalid;
+      }
     }
+    if (invalid > kMaxInvalidFraction * n) {
+      throw std::invalid_argument(
+          "camera distortion cannot be inverted over the image: " + std::to_string(invalid) +
+          " of " + std::to_string(n) + " pixels have no undistorted ray (the model folds over)");
+    }
+    invalid_pixels = invalid;
     // The pinhole image covers every undistorted pixel plus a bilinear margin.
     float xmin = 1e9f, xmax = -1e9f, ymin = 1e9f, ymax = -1e9f;
-    for (const auto& p : und) {
+    for (size_t i = 0; i < n; ++i) {
+      if (!valid[i]) continue;
+      const cv::Point2f& p = und[i];
       xmin = std::min(xmin, p.x);
       xmax = std::max(xmax, p.x);
       ymin = std::min(ymin, p.y);
@@ -441,9 +464,10 @@ void Renderer::Impl::setupCamera() {
     cv::Mat mx(c.height, c.width, CV_32F), my(c.height, c.width, CV_32F);
     for (int v = 0; v < c.height; ++v) {
       for (int u = 0; u < c.width; ++u) {
-        const cv::Point2f& p = und[static_cast<size_t>(v) * c.width + u];
-        mx.at<float>(v, u) = static_cast<float>(pfx * p.x + pcx);
-        my.at<float>(v, u) = static_cast<float>(pfy * p.y + pcy);
+        const size_t i = static_cast<size_t>(v) * c.width + u;
+        const cv::Point2f& p = und[i];
+        mx.at<float>(v, u) = valid[i] ? static_cast<float>(pfx * p.x + pcx) : -10.0f;
+        my.at<float>(v, u) = valid[i] ? static_cast<float>(pfy * p.y + pcy) : -10.0f;
       }
     }
     cv::convertMaps(mx, my, map1, map2, CV_16SC2);
@@ -794,6 +818,7 @@ cv::Matx33d Renderer::pinholeMatrix() const {
   return {impl_->pfx, 0, impl_->pcx, 0, impl_->pfy, impl_->pcy, 0, 0, 1};
 }
 double Renderer::distortionMapError() const { return impl_->map_error; }
+size_t Renderer::distortionInvalidPixels() const { return impl_->invalid_pixels; }
 
 CameraModel CameraModel::fromCalibrationFile(const std::string& file) {
   cv::FileStorage fs(file, cv::FileStorage::READ);

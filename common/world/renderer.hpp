@@ -83,6 +83,10 @@ class Renderer {
   // Largest round-trip error (pixels) of the distortion map: distorting the
   // undistorted coordinates of each output pixel again with OpenCV.
   double distortionMapError() const;
+  // Output pixels no ray reaches because the lens model folds over there
+  // (they show the background). The constructor throws
+  // std::invalid_argument if they exceed 0.5% of the image.
+  size_t distortionInvalidPixels() const;
 
  private:
   struct Impl;
