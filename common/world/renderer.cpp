@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "config/robot_config.hpp"
 #include "world/geometry2d.hpp"
 
 namespace vslam::world {
@@ -821,28 +822,8 @@ double Renderer::distortionMapError() const { return impl_->map_error; }
 size_t Renderer::distortionInvalidPixels() const { return impl_->invalid_pixels; }
 
 CameraModel CameraModel::fromCalibrationFile(const std::string& file) {
-  cv::FileStorage fs(file, cv::FileStorage::READ);
-  if (!fs.isOpened()) throw std::runtime_error("cannot open calibration file " + file);
-  CameraModel c;
-  cv::Mat K, D;
-  fs["image_width"] >> c.width;
-  fs["image_height"] >> c.height;
-  fs["camera_matrix"] >> K;
-  fs["distortion_coefficients"] >> D;
-  if (K.rows != 3 || K.cols != 3 || c.width <= 0 || c.height <= 0) {
-    throw std::runtime_error(file + ": needs image_width, image_height and a 3x3 camera_matrix");
-  }
-  K.convertTo(K, CV_64F);
-  c.fx = K.at<double>(0, 0);
-  c.fy = K.at<double>(1, 1);
-  c.cx = K.at<double>(0, 2);
-  c.cy = K.at<double>(1, 2);
-  c.distortion.clear();
-  if (!D.empty()) {
-    D.convertTo(D, CV_64F);
-    c.distortion.assign(D.begin<double>(), D.end<double>());
-  }
-  return c;
+  const config::CameraIntrinsics k = config::readOpenCvCalibration(file);
+  return CameraModel{k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion};
 }
 
 }  // namespace vslam::world

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "config/config_node.hpp"
+#include "util/strings.hpp"
 #include "world/geometry2d.hpp"
 #include "world/world.hpp"
 
@@ -33,19 +34,6 @@ struct Doc {
   std::string file;
   fs::path base_dir;
 };
-
-size_t editDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
-    }
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
 
 std::string fmt(double v) {
   std::ostringstream os;
