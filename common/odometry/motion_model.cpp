@@ -19,6 +19,14 @@ Eigen::Matrix3d MotionNoise::stepCovariance(const Pose2& step) const {
   return q;
 }
 
+Pose2 MotionNoise::perturb(const Pose2& step, double n_translation, double n_rotation) const {
+  const double d = std::hypot(step.x, step.y);
+  const double e_t = sigma_translation * std::sqrt(d) * n_translation;
+  const double e_r = sigma_rotation * std::sqrt(d + std::abs(step.theta)) * n_rotation;
+  const double heading = d > 1e-9 ? std::atan2(step.y, step.x) : 0.0;
+  return {step.x + std::cos(heading) * e_t, step.y + std::sin(heading) * e_t, step.theta + e_r};
+}
+
 void PoseWithCovariance::apply(const Pose2& step, const Eigen::Matrix3d& step_covariance) {
   const double c = std::cos(pose_.theta), s = std::sin(pose_.theta);
   Eigen::Matrix3d f;

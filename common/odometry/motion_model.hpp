@@ -32,6 +32,11 @@ struct MotionNoise {
 
   // Covariance of the step's (dx, dy, dtheta) in the robot frame at the step's start.
   Eigen::Matrix3d stepCovariance(const Pose2& step) const;
+  // The step with noise drawn from that covariance, given two standard normal
+  // draws: n_translation along the direction of travel, n_rotation on the
+  // heading. (Sampling through a matrix square root of the rank-deficient
+  // covariance would turn rounding into NaNs.)
+  Pose2 perturb(const Pose2& step, double n_translation, double n_rotation) const;
 };
 
 // Dead-reckoned pose with first-order covariance propagation:

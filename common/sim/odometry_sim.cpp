@@ -1,7 +1,5 @@
 #include "sim/odometry_sim.hpp"
 
-#include <Eigen/Eigenvalues>
-
 namespace vslam::sim {
 
 OdometrySimulator::OdometrySimulator(const OdometryParams& params, uint64_t seed)
@@ -16,14 +14,9 @@ void OdometrySimulator::addStep(const Pose2& true_step, double t) {
       measured.theta *= slip.rotation_factor;
     }
   }
-  const Eigen::Matrix3d q = noise_.stepCovariance(measured);
-  if (q.trace() > 0) {
-    // q = L L^T with L from the eigen decomposition (q may be singular: no
-    // lateral noise when driving straight).
-    const Eigen::Matrix3d l = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(q).operatorSqrt();
-    const Eigen::Vector3d e = l * Eigen::Vector3d(n01_(rng_), n01_(rng_), n01_(rng_));
-    measured = {measured.x + e.x(), measured.y + e.y(), measured.theta + e.z()};
-  }
+  const double n_translation = n01_(rng_);
+  const double n_rotation = n01_(rng_);
+  measured = noise_.perturb(measured, n_translation, n_rotation);
   pose_ = pose_.compose(measured);
   distance_ += std::hypot(measured.x, measured.y);
   rotation_ += std::abs(measured.theta);

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "sim/motion.hpp"
 #include "sim/odometry_sim.hpp"
@@ -49,6 +50,39 @@ TEST(OdometrySimulator, NoiseStatisticsMatchSigmaTAndSigmaR) {
   EXPECT_NEAR(var_x, 0.05 * 0.05 * 1.0, 0.08 * 0.05 * 0.05);
   EXPECT_NEAR(var_t, 0.03 * 0.03 * 1.0, 0.08 * 0.03 * 0.03);
   EXPECT_NEAR(sx / runs, 0.0, 4 * 0.05 / std::sqrt(runs));  // unbiased
+}
+
+TEST(OdometrySimulator, DiagonalAndCurvedStepsStayFinite) {
+  // Steps in every direction (a rank-deficient step covariance) must never
+  // produce a non-finite pose.
+  OdometryParams params;
+  params.sigma_translation = 0.03;
+  params.sigma_rotation = 0.03;
+  OdometrySimulator odo(params, 11);
+  for (int i = 0; i < 20000; ++i) {
+    const double a = 0.001 * i;
+    odo.addStep({0.006 * std::cos(a), 0.006 * std::sin(a), 0.002 * std::sin(0.37 * i)}, 0.02 * i);
+    ASSERT_TRUE(odo.pose().isFinite()) << "step " << i;
+  }
+}
+
+TEST(MotionNoise, PerturbationHasTheStepCovariance) {
+  // Sampled perturbations of a diagonal step against stepCovariance().
+  const MotionNoise noise{0.05, 0.02};
+  const Pose2 step{0.3, 0.4, 0.1};
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01;
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  const int n = 50000;
+  for (int i = 0; i < n; ++i) {
+    const double nt = n01(rng), nr = n01(rng);
+    const Pose2 p = noise.perturb(step, nt, nr);
+    const Eigen::Vector3d e(p.x - step.x, p.y - step.y, p.theta - step.theta);
+    sum += e * e.transpose();
+  }
+  const Eigen::Matrix3d sampled = sum / n;
+  const Eigen::Matrix3d expected = noise.stepCovariance(step);
+  EXPECT_TRUE(sampled.isApprox(expected, 0.03)) << sampled << "\nvs\n" << expected;
 }
 
 TEST(OdometrySimulator, TurningOnTheSpotAddsRotationNoiseOnly) {
@@ -99,7 +133,7 @@ TEST(WaypointDriver, DrivesTheLapsAndClosesTheLoop) {
     max_off_route = std::max(max_off_route, std::min(dx, dy));
     ++steps;
   }
-  EXPECT_NEAR(distance, 3 * 6.0, 0.15);  // 3 laps of 6 m, each corner cut by < 1 cm
+  EXPECT_NEAR(distance, 3 * 6.0, 0.15);         // 3 laps of 6 m, each corner cut by < 1 cm
   EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);  // back at the start
   EXPECT_LT(max_off_route, 0.05);
   EXPECT_DOUBLE_EQ(driver.progress(), 1.0);
