@@ -101,6 +101,10 @@ class ConfigNode {
   int64_t getInt(const std::string& key, int64_t fallback, InRange range) const;
   bool getBool(const std::string& key, bool fallback) const;
   std::string getString(const std::string& key, const std::string& fallback) const;
+  // (Without this, a literal fallback would convert to the bool above.)
+  std::string getString(const std::string& key, const char* fallback) const {
+    return getString(key, std::string(fallback));
+  }
 
   // Marks a key as read without reading it (e.g. handled by another layer).
   void markUsed(const std::string& key) const;

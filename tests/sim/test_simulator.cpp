@@ -191,3 +191,97 @@ TEST_F(SimulatorTest, ProgramWritesLogsAndRejectsBadScenarios) {
             2);
   EXPECT_NE(err.find("bad.yaml:14: colour: unknown key"), std::string::npos) << err;
 }
+
+namespace {
+double meanIntensity(const vslam::image_t& img) {
+  double s = 0;
+  for (uint8_t v : img.data) s += v;
+  return s / static_cast<double>(img.data.size());
+}
+std::vector<vslam::image_t> frames(const fs::path& log, const std::string& channel) {
+  std::vector<vslam::image_t> out;
+  for (const auto& e : vslam::test::readLog(log)) {
+    if (e.channel == channel) out.push_back(decode<vslam::image_t>(e));
+  }
+  return out;
+}
+}  // namespace
+
+TEST_F(SimulatorTest, DimmedLightsDarkenTheFramesWhileTheyLast) {
+  const auto plain = frames(simulate(writeScenario("cameras: {noise_sigma: 0}\n"), "plain.lcmlog"),
+                            "CAM_FORWARD_IMAGE");
+  const auto dim =
+      frames(simulate(writeScenario("cameras: {noise_sigma: 0}\ndisturbances:\n  lights:\n"
+                                    "    - {at_s: 1.0, duration_s: 1.0, exposure: 0.4}\n"),
+                      "dim.lcmlog"),
+             "CAM_FORWARD_IMAGE");
+  ASSERT_EQ(plain.size(), dim.size());
+  for (size_t i = 0; i < plain.size(); ++i) {
+    const double t = 0.1 * static_cast<double>(i);
+    const double ratio = meanIntensity(dim[i]) / meanIntensity(plain[i]);
+    if (t >= 1.0 && t < 2.0 - 1e-9) {
+      EXPECT_NEAR(ratio, 0.4, 0.03)
+          << "frame at " << t << " s";  // linear sensor, few saturated pixels
+      EXPECT_NEAR(dim[i].exposure, 0.4f, 1e-6);
+    } else {
+      EXPECT_EQ(dim[i].data, plain[i].data) << "frame at " << t << " s";
+    }
+  }
+}
+
+TEST_F(SimulatorTest, WalkingPeopleChangeTheViewButNotTheRobot) {
+  const fs::path a = simulate(writeScenario("cameras: {noise_sigma: 0}\n"), "empty.lcmlog");
+  const fs::path b = simulate(
+      writeScenario(
+          "cameras: {noise_sigma: 0}\ndisturbances:\n  people: {count: 6, speed_mps: 1.0}\n"),
+      "people.lcmlog");
+  // Same robot motion and odometry...
+  std::vector<std::vector<uint8_t>> odo_a, odo_b;
+  for (const auto& e : vslam::test::readLog(a)) {
+    if (e.channel == "ODOMETRY") odo_a.push_back(e.data);
+  }
+  for (const auto& e : vslam::test::readLog(b)) {
+    if (e.channel == "ODOMETRY") odo_b.push_back(e.data);
+  }
+  EXPECT_EQ(odo_a, odo_b);
+  // ...but six people in a 7 x 4 m room show up in some frames of the two cameras.
+  int changed = 0;
+  for (const char* channel : {"CAM_FORWARD_IMAGE", "CAM_BACKWARD_IMAGE"}) {
+    const auto fa = frames(a, channel), fb = frames(b, channel);
+    ASSERT_EQ(fa.size(), fb.size());
+    for (size_t i = 0; i < fa.size(); ++i) changed += fa[i].data != fb[i].data;
+  }
+  EXPECT_GT(changed, 0);
+}
+
+TEST_F(SimulatorTest, TrajectoryModeReplaysTheFileAsGroundTruth) {
+  // A straight 1 m drive in 5 s, given as a TUM file, with its own odometry.
+  const fs::path traj = dir_ / "traj.tum", odom = dir_ / "odom.tum";
+  {
+    std::ofstream t(traj), o(odom);
+    for (int i = 0; i <= 50; ++i) {
+      const double s = 0.1 * i;
+      t << 100.0 + s << " " << start_.x + 0.2 * s << " " << start_.y << " 0 0 0 0 1\n";
+      o << 100.0 + s << " " << 0.21 * s << " 0 0 0 0 0 1\n";  // wheels over-read by 5%
+    }
+  }
+  const fs::path scenario = dir_ / "traj.yaml";
+  std::ofstream(scenario) << "name: t\nworld: " << world_file_.string()
+                          << "\nmotion:\n  mode: trajectory\n  trajectory_file: traj.tum\n"
+                             "  odometry_file: odom.tum\nodometry:\n  sigma_translation: 0.05\n"
+                             "  sigma_rotation: 0.05\n";
+  const auto events = vslam::test::readLog(simulate(scenario, "traj.lcmlog"));
+  std::vector<vslam::ground_truth_pose_t> gt;
+  std::vector<vslam::odometry_t> odo;
+  for (const auto& e : events) {
+    if (e.channel == "GROUND_TRUTH") gt.push_back(decode<vslam::ground_truth_pose_t>(e));
+    if (e.channel == "ODOMETRY") odo.push_back(decode<vslam::odometry_t>(e));
+  }
+  ASSERT_GE(gt.size(), 250u);
+  for (size_t i = 0; i < gt.size(); ++i) {
+    const double s = 0.02 * static_cast<double>(i);
+    if (s > 5.0) break;
+    EXPECT_NEAR(gt[i].x, start_.x + 0.2 * s, 1e-9) << i;
+    EXPECT_NEAR(odo[i].x, 0.21 * s, 1e-9) << i;  // the recorded odometry, not simulated noise
+  }
+}

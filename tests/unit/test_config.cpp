@@ -130,6 +130,12 @@ TEST(ConfigNode, OptionalKeysUseDefaultOnlyWhenAbsent) {
   expectConfigError([&] { n.getDouble("bad", 1.0, InRange{0, 10}); }, "bad", "found -1");
 }
 
+TEST(ConfigNode, LiteralFallbackIsAFallbackNotAFlag) {
+  const ConfigNode n = yaml("present: x\n");
+  EXPECT_EQ(n.getString("absent", "gray8"), "gray8");
+  EXPECT_EQ(n.getString("present", "gray8"), "x");
+}
+
 TEST(ConfigNode, ChannelNamesMustBeUpperSnake) {
   const ConfigNode n = yaml("c: cam_forward\n");
   expectConfigError([&] { n.getChannel("c"); }, "c", "UPPER_SNAKE_CASE");
