@@ -76,6 +76,9 @@ void LockstepReplay::dispatchUntilQuiet() {
 }
 
 ReplayStats LockstepReplay::run() {
+  // Stages are started and stopped once: a replay object runs one log.
+  if (ran_) throw std::logic_error("LockstepReplay::run() called twice");
+  ran_ = true;
   stats_ = ReplayStats{};
   lcm::LogFile in(options_.input.string(), "r");
   if (!in.good()) throw std::runtime_error("cannot open input log " + options_.input.string());

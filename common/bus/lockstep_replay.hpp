@@ -51,7 +51,7 @@ class LockstepReplay {
   lcm::LCM& lcm() { return *lcm_; }
   const Clock& clock() const { return clock_; }
   void addStage(std::string instance, std::unique_ptr<Stage> stage);
-  // Runs the whole log. Throws std::runtime_error if a file cannot be opened.
+  // Runs the whole log, once. Throws std::runtime_error if a file cannot be opened.
   ReplayStats run();
 
  private:
@@ -64,6 +64,7 @@ class LockstepReplay {
   std::unique_ptr<StageRunner> runner_;
   std::unique_ptr<lcm::LogFile> out_;
   bool next_is_input_ = false;
+  bool ran_ = false;
   int64_t out_eventnum_ = 0;
   ReplayStats stats_;
 };
