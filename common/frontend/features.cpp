@@ -1,0 +1,63 @@
+#include "frontend/features.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <stdexcept>
+
+namespace vslam::frontend {
+
+void Features::clear() {
+  keypoints.clear();
+  descriptors.release();
+  normalized.clear();
+}
+
+FeatureExtractor::FeatureExtractor(const config::CameraConfig& camera, const SiftParams& sift)
+    : FeatureExtractor(cv::Matx33d(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1),
+                       camera.distortion, sift) {}
+
+FeatureExtractor::FeatureExtractor(const config::CameraIntrinsics& intrinsics,
+                                   const SiftParams& sift)
+    : FeatureExtractor(
+          cv::Matx33d(intrinsics.fx, 0, intrinsics.cx, 0, intrinsics.fy, intrinsics.cy, 0, 0, 1),
+          intrinsics.distortion, sift) {}
+
+FeatureExtractor::FeatureExtractor(const cv::Matx33d& camera_matrix,
+                                   const std::vector<double>& distortion, const SiftParams& sift)
+    : camera_matrix_(camera_matrix), distortion_(distortion), params_(sift) {
+  if (!(camera_matrix_(0, 0) > 0) || !(camera_matrix_(1, 1) > 0))
+    throw std::invalid_argument("FeatureExtractor: focal lengths must be positive");
+  static const size_t kValidSizes[] = {0, 4, 5, 8, 12, 14};
+  bool valid = false;
+  for (size_t n : kValidSizes) valid = valid || distortion_.size() == n;
+  if (!valid)
+    throw std::invalid_argument(
+        "FeatureExtractor: distortion needs 0, 4, 5, 8, 12 or 14 coefficients");
+  sift_ = cv::SIFT::create(params_.nfeatures, params_.octave_layers, params_.contrast_threshold,
+                           params_.edge_threshold, params_.sigma);
+}
+
+void FeatureExtractor::extract(const cv::Mat& gray, Features* out) {
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw std::invalid_argument("FeatureExtractor::extract: needs a non-empty CV_8UC1 image");
+  out->keypoints.clear();
+  sift_->detectAndCompute(gray, cv::noArray(), out->keypoints, out->descriptors);
+  pixels_.resize(out->keypoints.size());
+  for (size_t i = 0; i < pixels_.size(); ++i) pixels_[i] = out->keypoints[i].pt;
+  undistort(pixels_, &out->normalized);
+}
+
+void FeatureExtractor::undistort(const std::vector<cv::Point2f>& pixels,
+                                 std::vector<Eigen::Vector2d>* normalized) const {
+  normalized->resize(pixels.size());
+  if (pixels.empty()) return;
+  // Double precision in and out: float pixel inputs are exact, and the
+  // iteration count matters more than OpenCV's default 5 for wide lenses.
+  distorted_.assign(pixels.begin(), pixels.end());
+  cv::undistortPoints(distorted_, undistorted_, camera_matrix_, distortion_, cv::noArray(),
+                      cv::noArray(),
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12));
+  for (size_t i = 0; i < pixels.size(); ++i)
+    (*normalized)[i] = Eigen::Vector2d(undistorted_[i].x, undistorted_[i].y);
+}
+
+}  // namespace vslam::frontend

@@ -1,0 +1,71 @@
+#pragma once
+// SIFT features of one image with their undistorted normalized coordinates,
+// the front-end's unit of work (paper section 4.1.3: "compute un-warped
+// homogeneous coordinates for the features"). No LCM.
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <vector>
+
+#include "config/robot_config.hpp"
+
+namespace vslam::frontend {
+
+struct Features {
+  std::vector<cv::KeyPoint> keypoints;  // distorted pixel positions, as detected
+  cv::Mat descriptors;                  // CV_32F, keypoints.size() x 128
+  // Undistorted normalized image coordinates (x/z, y/z in the OpenCV camera
+  // frame) of each keypoint, same order.
+  std::vector<Eigen::Vector2d> normalized;
+
+  size_t size() const { return keypoints.size(); }
+  void clear();
+};
+
+// OpenCV's SIFT parameters (cv::SIFT::create), with its defaults.
+struct SiftParams {
+  int nfeatures = 0;  // keep the best N by contrast; 0 = all
+  int octave_layers = 3;
+  double contrast_threshold = 0.04;
+  double edge_threshold = 10.0;
+  double sigma = 1.6;
+};
+
+// Detects SIFT keypoints and descriptors and undistorts the keypoints with
+// the OpenCV lens model (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4 [tx ty]]]]).
+// Keeps its SIFT object and point buffers across calls; `extract` reuses the
+// output's storage. Not thread-safe: one extractor per thread.
+class FeatureExtractor {
+ public:
+  FeatureExtractor(const config::CameraConfig& camera, const SiftParams& sift = {});
+  FeatureExtractor(const config::CameraIntrinsics& intrinsics, const SiftParams& sift = {});
+  FeatureExtractor(const cv::Matx33d& camera_matrix, const std::vector<double>& distortion,
+                   const SiftParams& sift = {});
+
+  // `gray`: CV_8UC1 image. Replaces *out.
+  void extract(const cv::Mat& gray, Features* out);
+
+  // Distorted pixel coordinates -> undistorted normalized coordinates
+  // (iterative inversion of the lens model to ~1e-10, not OpenCV's default
+  // five iterations).
+  void undistort(const std::vector<cv::Point2f>& pixels,
+                 std::vector<Eigen::Vector2d>* normalized) const;
+
+  const cv::Matx33d& cameraMatrix() const { return camera_matrix_; }
+  const std::vector<double>& distortion() const { return distortion_; }
+  // Mean focal length, pixels: converts normalized-coordinate errors to pixels.
+  double focalPx() const { return 0.5 * (camera_matrix_(0, 0) + camera_matrix_(1, 1)); }
+  const SiftParams& siftParams() const { return params_; }
+
+ private:
+  cv::Matx33d camera_matrix_;
+  std::vector<double> distortion_;
+  SiftParams params_;
+  cv::Ptr<cv::SIFT> sift_;
+  // Reused across calls.
+  mutable std::vector<cv::Point2f> pixels_;
+  mutable std::vector<cv::Point2d> distorted_, undistorted_;
+};
+
+}  // namespace vslam::frontend

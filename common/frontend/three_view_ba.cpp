@@ -1,0 +1,209 @@
+#include "frontend/three_view_ba.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "frontend/creation_geometry.hpp"
+
+namespace vslam::frontend {
+
+namespace {
+
+// Reprojection residual in pixels of a point X (view-1 camera frame) seen
+// at normalized coordinates (u, v) by a camera with X_k = R(aa) X + t:
+// r = f (X_k.xy / X_k.z - (u, v)).
+struct ReprojectionCost {
+  ReprojectionCost(const Eigen::Vector2d& x, double f) : obs(x), focal(f) {}
+
+  template <typename T>
+  bool operator()(const T* angle_axis, const T* t, const T* point, T* residual) const {
+    T q[3];
+    ceres::AngleAxisRotatePoint(angle_axis, point, q);
+    q[0] += t[0];
+    q[1] += t[1];
+    q[2] += t[2];
+    residual[0] = T(focal) * (q[0] / q[2] - T(obs.x()));
+    residual[1] = T(focal) * (q[1] / q[2] - T(obs.y()));
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& x, double f) {
+    return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 3, 3, 3>(
+        new ReprojectionCost(x, f));
+  }
+
+  Eigen::Vector2d obs;
+  double focal;
+};
+
+// The same for view 1 (identity pose): only the point is a parameter.
+struct ReferenceReprojectionCost {
+  ReferenceReprojectionCost(const Eigen::Vector2d& x, double f) : obs(x), focal(f) {}
+
+  template <typename T>
+  bool operator()(const T* point, T* residual) const {
+    residual[0] = T(focal) * (point[0] / point[2] - T(obs.x()));
+    residual[1] = T(focal) * (point[1] / point[2] - T(obs.y()));
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& x, double f) {
+    return new ceres::AutoDiffCostFunction<ReferenceReprojectionCost, 2, 3>(
+        new ReferenceReprojectionCost(x, f));
+  }
+
+  Eigen::Vector2d obs;
+  double focal;
+};
+
+const Eigen::Vector2d& observation(const ThreeViewObservations& obs, size_t i, int view) {
+  return view == 0 ? obs.x1[i] : view == 1 ? obs.x2[i] : obs.x3[i];
+}
+
+Eigen::Vector3d inView(const ThreeViewModel& model, size_t i, int view) {
+  const Eigen::Vector3d& p = model.points[i];
+  return view == 0 ? p : view == 1 ? model.cam2_T_cam1 * p : model.cam3_T_cam1 * p;
+}
+
+double medianOf(std::vector<double>* v) {
+  if (v->empty()) return 0.0;
+  const size_t mid = v->size() / 2;
+  std::nth_element(v->begin(), v->begin() + mid, v->end());
+  return (*v)[mid];
+}
+
+}  // namespace
+
+double reprojectionErrorPx(const ThreeViewObservations& obs, const ThreeViewModel& model,
+                           double focal_px, size_t i, int view) {
+  const Eigen::Vector3d q = inView(model, i, view);
+  if (!(q.z() > 0)) return std::numeric_limits<double>::infinity();
+  return focal_px * (q.head<2>() / q.z() - observation(obs, i, view)).norm();
+}
+
+double reprojectionRmsPx(const ThreeViewObservations& obs, const ThreeViewModel& model,
+                         double focal_px, const std::vector<uint8_t>& active) {
+  double sum = 0.0;
+  int count = 0;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (!active[i]) continue;
+    for (int view = 0; view < 3; ++view) {
+      const double e = reprojectionErrorPx(obs, model, focal_px, i, view);
+      sum += e * e;
+      ++count;
+    }
+  }
+  return count > 0 ? std::sqrt(sum / count) : 0.0;
+}
+
+ThreeViewBaReport threeViewBundleAdjust(const ThreeViewObservations& obs, double focal_px,
+                                        const ThreeViewBaParams& params, ThreeViewModel* model,
+                                        std::vector<uint8_t>* active) {
+  ThreeViewBaReport report;
+  const size_t n = obs.size();
+  active->resize(n, 0);
+  model->points.resize(n, Eigen::Vector3d(0, 0, 1));
+  report.num_points_in = static_cast<int>(std::count(active->begin(), active->end(), 1));
+  report.initial_rms_px = reprojectionRmsPx(obs, *model, focal_px, *active);
+
+  // Parameter blocks. t2 lives on the unit sphere: the overall scale is the
+  // gauge freedom the paper fixes with |t12| = 1.
+  Eigen::Vector3d aa2 = angleAxisFromRotation(model->cam2_T_cam1.linear());
+  Eigen::Vector3d t2 = model->cam2_T_cam1.translation().normalized();
+  Eigen::Vector3d aa3 = angleAxisFromRotation(model->cam3_T_cam1.linear());
+  Eigen::Vector3d t3 = model->cam3_T_cam1.translation() / model->cam2_T_cam1.translation().norm();
+  std::vector<Eigen::Vector3d> points = model->points;
+  for (auto& p : points) p /= model->cam2_T_cam1.translation().norm();
+  auto writeBack = [&] {
+    model->cam2_T_cam1.linear() = rotationFromAngleAxis(aa2);
+    model->cam2_T_cam1.translation() = t2;
+    model->cam3_T_cam1.linear() = rotationFromAngleAxis(aa3);
+    model->cam3_T_cam1.translation() = t3;
+    model->points = points;
+  };
+  if (!t2.allFinite() || !t3.allFinite()) {
+    report.message = "initial view-2 translation is zero";
+    return report;
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::HuberLoss loss(params.huber_px);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.num_threads = 1;
+  options.max_num_iterations = params.max_iterations;
+  options.function_tolerance = params.function_tolerance;
+  options.logging_type = ceres::SILENT;
+
+  std::vector<double> components;
+  for (int round = 0; round < params.max_rounds; ++round) {
+    const int num_active = static_cast<int>(std::count(active->begin(), active->end(), 1));
+    if (num_active < 6) {
+      report.message = "fewer than 6 points left";
+      return report;
+    }
+    ceres::Problem problem(problem_options);
+    for (size_t i = 0; i < n; ++i) {
+      if (!(*active)[i]) continue;
+      double* p = points[i].data();
+      problem.AddResidualBlock(ReferenceReprojectionCost::Create(obs.x1[i], focal_px), &loss, p);
+      problem.AddResidualBlock(ReprojectionCost::Create(obs.x2[i], focal_px), &loss, aa2.data(),
+                               t2.data(), p);
+      problem.AddResidualBlock(ReprojectionCost::Create(obs.x3[i], focal_px), &loss, aa3.data(),
+                               t3.data(), p);
+    }
+    problem.SetManifold(t2.data(), new ceres::SphereManifold<3>());
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    ++report.rounds;
+    report.iterations += static_cast<int>(summary.iterations.size()) - 1;
+    if (!summary.IsSolutionUsable() || !aa2.allFinite() || !t2.allFinite() || !aa3.allFinite() ||
+        !t3.allFinite()) {
+      report.message = "solver failed: " + summary.message;
+      return report;
+    }
+    writeBack();
+
+    // Robust std of all residual components of the active points.
+    components.clear();
+    for (size_t i = 0; i < n; ++i) {
+      if (!(*active)[i]) continue;
+      for (int view = 0; view < 3; ++view) {
+        const Eigen::Vector3d q = inView(*model, i, view);
+        if (!(q.z() > 0)) continue;
+        const Eigen::Vector2d r = focal_px * (q.head<2>() / q.z() - observation(obs, i, view));
+        components.push_back(r.x());
+        components.push_back(r.y());
+      }
+    }
+    const double med = medianOf(&components);
+    for (double& c : components) c = std::abs(c - med);
+    report.robust_sigma_px = std::max(params.min_sigma_px, 1.4826 * medianOf(&components));
+    const double limit = params.outlier_sigmas * report.robust_sigma_px;
+
+    int dropped = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!(*active)[i]) continue;
+      for (int view = 0; view < 3; ++view) {
+        if (!(reprojectionErrorPx(obs, *model, focal_px, i, view) <= limit)) {
+          (*active)[i] = 0;
+          ++dropped;
+          break;
+        }
+      }
+    }
+    report.num_rejected += dropped;
+    if (dropped == 0) break;
+  }
+  report.final_rms_px = reprojectionRmsPx(obs, *model, focal_px, *active);
+  report.converged = std::isfinite(report.final_rms_px);
+  if (!report.converged) report.message = "non-finite reprojection error";
+  return report;
+}
+
+}  // namespace vslam::frontend
