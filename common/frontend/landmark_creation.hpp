@@ -28,9 +28,9 @@ struct CreationParams {
   int min_two_view_inliers = 15;  // per pair after refinement, else kTooFewMatches
   // Median parallax left after the best pure rotation, pixels, in views 1-2
   // and 1-3; below it the camera only rotated (or stood still) and depth is
-  // unobservable: kDegenerateMotion. Pixel noise alone gives ~1.2 x its
-  // per-coordinate std (0.83 px at 0.5 px); 20 cm forward at 1-5 m gives
-  // several pixels.
+  // unobservable: kDegenerateMotion. Pixel noise alone gives ~1.7 x the
+  // per-view, per-coordinate std (0.83 px at 0.5 px); 20 cm forward at
+  // 1-5 m gives several pixels.
   double min_parallax_px = 1.5;
   // Odometry distance between the camera positions of views 1 and 2 needed
   // to fix the metric scale, metres; below: kDegenerateMotion.
