@@ -1,6 +1,7 @@
 #include "stages/builtin_stages.hpp"
 
 #include "stages/deadreckon_stage.hpp"
+#include "stages/frontend_stage.hpp"
 
 namespace vslam::stages {
 
@@ -8,6 +9,7 @@ const bus::StageRegistry& builtinStages() {
   static const bus::StageRegistry registry = [] {
     bus::StageRegistry r;
     registerDeadReckon(r);
+    registerFrontend(r);
     return r;
   }();
   return registry;
