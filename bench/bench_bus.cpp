@@ -2,7 +2,6 @@
 // memq://, and lock-step replay throughput with the dead-reckoning stage.
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
@@ -11,7 +10,6 @@
 #include "bus/lockstep_replay.hpp"
 #include "stages/deadreckon_stage.hpp"
 #include "support/test_logs.hpp"
-#include "util/process.hpp"
 
 using namespace vslam;
 
@@ -72,12 +70,3 @@ static void BM_LockstepReplayDeadReckon(benchmark::State& state) {
   std::filesystem::remove_all(dir);
 }
 BENCHMARK(BM_LockstepReplayDeadReckon)->Unit(benchmark::kMillisecond);
-
-int main(int argc, char** argv) {
-  // As every vslam process does at start-up (see util/process.hpp).
-  if (!std::getenv("VSLAM_DEFAULT_MALLOC")) vslam::tuneAllocatorForSteadyState();
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

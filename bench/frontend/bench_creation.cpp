@@ -19,7 +19,6 @@
 #include "frontend/features.hpp"
 #include "frontend/landmark_creation.hpp"
 #include "frontend/matching.hpp"
-#include "util/process.hpp"
 #include "world/renderer.hpp"
 #include "world/world.hpp"
 
@@ -180,12 +179,3 @@ void BM_Creation(benchmark::State& state) {
 BENCHMARK(BM_Creation)->ArgNames({"width"})->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  vslam::tuneAllocatorForSteadyState();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

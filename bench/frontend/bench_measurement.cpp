@@ -13,7 +13,6 @@
 
 #include "config/robot_config.hpp"
 #include "frontend/pose_measurement.hpp"
-#include "util/process.hpp"
 
 namespace {
 
@@ -103,12 +102,3 @@ BENCHMARK(BM_MeasurementEpnp)->Arg(30)->Arg(50)->Arg(100)->Unit(benchmark::kMicr
 BENCHMARK(BM_MeasurementSqpnp)->Arg(30)->Arg(50)->Arg(100)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  vslam::tuneAllocatorForSteadyState();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

@@ -5,7 +5,6 @@
 #include <random>
 
 #include "frontend/landmark_index.hpp"
-#include "util/process.hpp"
 
 using namespace vslam::frontend;
 
@@ -55,11 +54,3 @@ void BM_Recognize(benchmark::State& state) {
 BENCHMARK(BM_Recognize)->Arg(10)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  vslam::tuneAllocatorForSteadyState();
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

@@ -12,7 +12,6 @@
 #include <memory>
 #include <string>
 
-#include "util/process.hpp"
 #include "world/renderer.hpp"
 #include "world/world.hpp"
 
@@ -126,12 +125,3 @@ void BM_LoadApartment(benchmark::State& state) {
 BENCHMARK(BM_LoadApartment)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  vslam::tuneAllocatorForSteadyState();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
