@@ -5,20 +5,12 @@
 #include <random>
 
 #include "frontend/landmark_index.hpp"
+#include "support/synthetic_descriptors.hpp"
 
 using namespace vslam::frontend;
+using vslam::test::randomDescriptors;
 
 namespace {
-
-cv::Mat randomDescriptors(int n, std::mt19937& rng) {
-  cv::Mat d(n, 128, CV_32F);
-  std::uniform_real_distribution<float> u(0.f, 1.f);
-  for (int r = 0; r < n; ++r) {
-    for (int c = 0; c < 128; ++c) d.at<float>(r, c) = u(rng);
-    d.row(r) *= 512.0 / cv::norm(d.row(r));
-  }
-  return d;
-}
 
 void BM_Recognize(benchmark::State& state) {
   const int num_landmarks = static_cast<int>(state.range(0));
