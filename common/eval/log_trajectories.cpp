@@ -11,22 +11,11 @@
 #include <vslam/pose_estimate_t.hpp>
 
 #include "eval/errors.hpp"
+#include "eval/log_reader.hpp"
 #include "util/log.hpp"
 
 namespace vslam::eval {
 namespace {
-
-// Bytes of an event's framing: sync word, event number, timestamp, channel
-// length, data length (lcm_eventlog format).
-constexpr long kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
-
-int64_t fingerprint(const void* data, int32_t len) {
-  if (len < 8) return 0;
-  const auto* b = static_cast<const uint8_t*>(data);
-  uint64_t h = 0;
-  for (int i = 0; i < 8; ++i) h = (h << 8) | b[i];
-  return static_cast<int64_t>(h);
-}
 
 enum class PoseType { kGroundTruth, kPoseEstimate, kOdometry };
 
@@ -54,34 +43,10 @@ struct ChannelTrajectory {
   std::optional<PoseType> type;
 };
 
-template <class Msg>
-Msg decodeOrThrow(const std::string& log, const lcm::LogEvent& ev, long offset,
-                  const std::string& type) {
-  Msg msg;
-  if (msg.decode(ev.data, 0, ev.datalen) != ev.datalen) {
-    std::ostringstream os;
-    os << log << ": event " << ev.eventnum << " on channel " << ev.channel << " (byte " << offset
-       << ") does not decode as " << type << ": the log is corrupt";
-    throw DataError(os.str());
-  }
-  return msg;
-}
-
-std::string channelList(const std::map<std::string, int64_t>& counts) {
-  if (counts.empty()) return "none";
-  std::string s;
-  for (const auto& [ch, n] : counts)
-    s += (s.empty() ? "" : ", ") + ch + " (" + std::to_string(n) + ")";
-  return s;
-}
-
 }  // namespace
 
 LogContents readLogTrajectories(const std::filesystem::path& log, const LogReadOptions& options) {
   const std::string name = log.string();
-  std::error_code ec;
-  if (!std::filesystem::exists(log, ec)) throw DataError(name + ": no such file");
-  if (std::filesystem::is_directory(log, ec)) throw DataError(name + ": is a directory, not a log");
   const bool use_defaults = options.est_channels.empty() && options.odom_channels.empty();
 
   std::set<std::string> pose_channels = {options.ref_channel};
@@ -93,31 +58,12 @@ LogContents readLogTrajectories(const std::filesystem::path& log, const LogReadO
     pose_channels.insert(kDefaultOdometryChannel);
   }
 
-  lcm::LogFile in(name, "r");
-  if (!in.good()) throw DataError(name + ": cannot open the log for reading");
-  FILE* file = in.getFilePtr();
-  std::fseek(file, 0, SEEK_END);
-  const long file_size = std::ftell(file);
-  std::fseek(file, 0, SEEK_SET);
-
   LogContents out;
   std::map<std::string, ChannelTrajectory> trajs;
   std::optional<vslam::map_t> last_map;
-  long pos = 0;
-  int64_t events = 0;
-  while (const lcm::LogEvent* ev = in.readNextEvent()) {
-    const long end = std::ftell(file);
-    const long expected = kEventHeaderBytes + static_cast<long>(ev->channel.size()) + ev->datalen;
-    if (end - pos != expected) {
-      std::ostringstream os;
-      os << name << " is damaged: " << (end - pos - expected) << " bytes at byte " << pos
-         << " are not an LCM event (before event " << ev->eventnum << " on " << ev->channel << ")";
-      throw DataError(os.str());
-    }
-    const long event_offset = pos;
-    pos = end;
-    ++events;
-    ++out.channel_counts[ev->channel];
+  out.channel_counts = forEachLogEvent(log, [&](const LogEventRef& ref) {
+    const lcm::LogEvent* ev = &ref.event;
+    const long event_offset = ref.offset;
     if (pose_channels.count(ev->channel)) {
       const int64_t hash = fingerprint(ev->data, ev->datalen);
       const auto type = poseTypeOf(hash);
@@ -140,19 +86,17 @@ LogContents readLogTrajectories(const std::filesystem::path& log, const LogReadO
       ct.type = type;
       switch (*type) {
         case PoseType::kGroundTruth: {
-          const auto m =
-              decodeOrThrow<vslam::ground_truth_pose_t>(name, *ev, event_offset, typeName(*type));
+          const auto m = decodeEvent<vslam::ground_truth_pose_t>(ref, typeName(*type));
           ct.traj.poses.push_back(planarPose(m.utime * 1e-6, m.x, m.y, m.z, m.theta));
           break;
         }
         case PoseType::kPoseEstimate: {
-          const auto m =
-              decodeOrThrow<vslam::pose_estimate_t>(name, *ev, event_offset, typeName(*type));
+          const auto m = decodeEvent<vslam::pose_estimate_t>(ref, typeName(*type));
           ct.traj.poses.push_back(planarPose(m.utime * 1e-6, m.x, m.y, 0.0, m.theta));
           break;
         }
         case PoseType::kOdometry: {
-          const auto m = decodeOrThrow<vslam::odometry_t>(name, *ev, event_offset, typeName(*type));
+          const auto m = decodeEvent<vslam::odometry_t>(ref, typeName(*type));
           ct.traj.poses.push_back(planarPose(m.utime * 1e-6, m.x, m.y, 0.0, m.theta));
           break;
         }
@@ -164,20 +108,9 @@ LogContents readLogTrajectories(const std::filesystem::path& log, const LogReadO
            << ") is not vslam.map_t; choose the map channel with --map-channel";
         throw DataError(os.str());
       }
-      last_map = decodeOrThrow<vslam::map_t>(name, *ev, event_offset, "vslam.map_t");
+      last_map = decodeEvent<vslam::map_t>(ref, "vslam.map_t");
     }
-  }
-  if (pos < file_size) {
-    std::ostringstream os;
-    if (events == 0) {
-      os << name << ": not an LCM log (no complete event in its " << file_size << " bytes)";
-    } else {
-      os << name << " is damaged: the last " << (file_size - pos) << " bytes (from byte " << pos
-         << ", after " << events << " events) are not a complete LCM event (cut or corrupt)";
-    }
-    throw DataError(os.str());
-  }
-
+  });
   auto take = [&](const std::string& channel, const std::string& role) -> ChannelTrajectory& {
     auto it = trajs.find(channel);
     if (it == trajs.end() || it->second.traj.empty()) {

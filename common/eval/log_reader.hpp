@@ -1,0 +1,52 @@
+#pragma once
+// Reading an LCM log that must be intact, for the evaluation tools: every
+// byte belongs to an event (the LCM reader silently skips garbage; here it is
+// a DataError naming the byte offset), the tail is complete, and each message
+// decodes as the type its fingerprint says.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "eval/errors.hpp"
+
+namespace vslam::eval {
+
+// The LCM type fingerprint: the first 8 bytes of an encoded message, big-endian.
+int64_t fingerprint(const void* data, int32_t len);
+
+// Where an event sits in the log, for error messages.
+struct LogEventRef {
+  const std::string& log;
+  const lcm::LogEvent& event;
+  long offset;  // byte offset of the event in the file
+};
+
+// Calls visit(ref) for every event of the log, in order. Throws DataError if
+// the file is missing, a directory, not a log, or damaged anywhere. Returns
+// the number of events per channel.
+std::map<std::string, int64_t> forEachLogEvent(
+    const std::filesystem::path& log, const std::function<void(const LogEventRef&)>& visit);
+
+// "A (3), B (7)" for error messages naming the channels of a log.
+std::string channelList(const std::map<std::string, int64_t>& counts);
+
+// Decodes an event as Msg; DataError if the type or length does not match.
+template <class Msg>
+Msg decodeEvent(const LogEventRef& ref, const std::string& type_name) {
+  Msg msg;
+  if (fingerprint(ref.event.data, ref.event.datalen) != Msg::getHash() ||
+      msg.decode(ref.event.data, 0, ref.event.datalen) != ref.event.datalen) {
+    std::ostringstream os;
+    os << ref.log << ": event " << ref.event.eventnum << " on channel " << ref.event.channel
+       << " (byte " << ref.offset << ") does not decode as " << type_name;
+    throw DataError(os.str());
+  }
+  return msg;
+}
+
+}  // namespace vslam::eval
