@@ -5,6 +5,7 @@
 #include <optional>
 #include <ostream>
 
+#include "eval/appearance_eval.hpp"
 #include "eval/cli_args.hpp"
 #include "eval/errors.hpp"
 #include "eval/log_trajectories.hpp"
@@ -200,6 +201,7 @@ struct Mode {
 
 const Mode kModes[] = {
     {"--trajectory", runTrajectory},
+    {"--appearance", runAppearanceEval},
 };
 
 }  // namespace
@@ -241,6 +243,8 @@ void printEvalUsage(std::ostream& os) {
         "Prints a table to stdout. Exit codes: 0 ok, 1 data problem (unreadable or malformed\n"
         "input, missing channel, no associated poses, damaged log), 2 bad command line.\n"
         "Definitions: docs/evaluation.md.\n";
+  os << "\n";
+  printAppearanceUsage(os);
 }
 
 int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {

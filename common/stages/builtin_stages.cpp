@@ -1,5 +1,6 @@
 #include "stages/builtin_stages.hpp"
 
+#include "stages/appearance_stage.hpp"
 #include "stages/deadreckon_stage.hpp"
 #include "stages/frontend_stage.hpp"
 
@@ -10,6 +11,7 @@ const bus::StageRegistry& builtinStages() {
     bus::StageRegistry r;
     registerDeadReckon(r);
     registerFrontend(r);
+    registerAppearance(r);
     return r;
   }();
   return registry;

@@ -283,6 +283,8 @@ inline void fill(vslam::appearance_link_t& m, int s) {
   m.dtheta = 0.2 + 0.01 * s;
   m.sigma_translation = 0.03;
   m.sigma_rotation = 0.05 + 0.001 * s;
+  m.sigma_translation_sqrt = 0.02;
+  m.sigma_rotation_sqrt = 0.03 + 0.001 * s;
 }
 
 inline void fill(vslam::appearance_hypothesis_t& m, int s) {

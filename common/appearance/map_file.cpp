@@ -1,0 +1,282 @@
+#include "appearance/map_file.hpp"
+
+#include <sqlite3.h>
+
+#include <cstring>
+#include <map>
+#include <sstream>
+
+namespace vslam::appearance {
+namespace {
+
+constexpr const char* kFormat = "vslam-appearance-map";
+constexpr const char* kVersion = "1";
+
+class Db {
+ public:
+  Db(const std::filesystem::path& file, int flags) : file_(file.string()) {
+    if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+      const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw MapFileError(file_ + ": " + why);
+    }
+  }
+  ~Db() { sqlite3_close(db_); }
+  Db(const Db&) = delete;
+  Db& operator=(const Db&) = delete;
+
+  void exec(const std::string& sql) {
+    char* err = nullptr;
+    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+      const std::string why = err ? err : "unknown error";
+      sqlite3_free(err);
+      throw MapFileError(file_ + ": " + why);
+    }
+  }
+  sqlite3* get() { return db_; }
+  [[noreturn]] void fail(const std::string& what) {
+    throw MapFileError(file_ + ": " + what + ": " + sqlite3_errmsg(db_));
+  }
+  const std::string& name() const { return file_; }
+
+ private:
+  std::string file_;
+  sqlite3* db_ = nullptr;
+};
+
+class Statement {
+ public:
+  Statement(Db& db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db.get(), sql, -1, &stmt_, nullptr) != SQLITE_OK) db.fail(sql);
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  sqlite3_stmt* get() { return stmt_; }
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc != SQLITE_DONE) db_.fail("step");
+    return false;
+  }
+  void done() {
+    step();
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+
+ private:
+  Db& db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+// Little-endian encoding (the machines we run on are little-endian; the
+// static_assert keeps it honest).
+static_assert(sizeof(float) == 4 && sizeof(double) == 8);
+template <class T>
+std::vector<uint8_t> toBlob(const T* values, size_t n) {
+  std::vector<uint8_t> out(n * sizeof(T));
+  if (n > 0) std::memcpy(out.data(), values, out.size());
+  return out;
+}
+template <class T>
+bool fromBlob(sqlite3_stmt* s, int column, std::vector<T>* out) {
+  const int bytes = sqlite3_column_bytes(s, column);
+  if (bytes % static_cast<int>(sizeof(T)) != 0) return false;
+  out->resize(static_cast<size_t>(bytes) / sizeof(T));
+  if (bytes > 0)
+    std::memcpy(out->data(), sqlite3_column_blob(s, column), static_cast<size_t>(bytes));
+  return true;
+}
+
+std::string joinCameras(const std::vector<std::string>& cameras) {
+  std::string s;
+  for (size_t i = 0; i < cameras.size(); ++i) s += (i ? "," : "") + cameras[i];
+  return s;
+}
+
+}  // namespace
+
+void saveMap(const std::filesystem::path& file, const SavedMap& map) {
+  for (const auto& c : map.cameras) {
+    if (c.empty() || c.find(',') != std::string::npos) {
+      throw MapFileError(file.string() + ": camera name '" + c + "' cannot be saved");
+    }
+  }
+  std::filesystem::path tmp = file;
+  tmp += ".tmp";
+  std::error_code ec;
+  std::filesystem::remove(tmp, ec);
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
+  {
+    Db db(tmp, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+    db.exec(
+        "PRAGMA journal_mode=OFF; BEGIN;"
+        "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT);"
+        "CREATE TABLE states(state_id INTEGER PRIMARY KEY, utime INTEGER, odom_x REAL,"
+        " odom_y REAL, odom_theta REAL);"
+        "CREATE TABLE histograms(state_id INTEGER, camera INTEGER, bins BLOB,"
+        " PRIMARY KEY (state_id, camera));"
+        "CREATE TABLE path(seq INTEGER PRIMARY KEY, state_id INTEGER, known INTEGER,"
+        " dx REAL, dy REAL, dtheta REAL, relative_translation REAL, relative_rotation REAL,"
+        " odometry_translation REAL, odometry_rotation REAL, covariance BLOB);");
+    {
+      Statement meta(db, "INSERT INTO meta VALUES (?, ?)");
+      const std::pair<std::string, std::string> rows[] = {{"format", kFormat},
+                                                          {"version", kVersion},
+                                                          {"bins", std::to_string(map.bins)},
+                                                          {"cameras", joinCameras(map.cameras)}};
+      for (const auto& [k, v] : rows) {
+        sqlite3_bind_text(meta.get(), 1, k.c_str(), -1, SQLITE_TRANSIENT);
+        sqlite3_bind_text(meta.get(), 2, v.c_str(), -1, SQLITE_TRANSIENT);
+        meta.done();
+      }
+    }
+    {
+      Statement st(db, "INSERT INTO states VALUES (?, ?, ?, ?, ?)");
+      Statement hist(db, "INSERT INTO histograms VALUES (?, ?, ?)");
+      for (const auto& s : map.states) {
+        sqlite3_bind_int64(st.get(), 1, s.id);
+        sqlite3_bind_int64(st.get(), 2, s.utime);
+        sqlite3_bind_double(st.get(), 3, s.odometry.x);
+        sqlite3_bind_double(st.get(), 4, s.odometry.y);
+        sqlite3_bind_double(st.get(), 5, s.odometry.theta);
+        st.done();
+        for (size_t c = 0; c < s.histograms.size(); ++c) {
+          const auto blob = toBlob(s.histograms[c].data(), s.histograms[c].size());
+          sqlite3_bind_int64(hist.get(), 1, s.id);
+          sqlite3_bind_int(hist.get(), 2, static_cast<int>(c));
+          sqlite3_bind_blob(hist.get(), 3, blob.data(), static_cast<int>(blob.size()),
+                            SQLITE_TRANSIENT);
+          hist.done();
+        }
+      }
+    }
+    {
+      Statement p(db, "INSERT INTO path VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      for (size_t i = 0; i < map.path.size(); ++i) {
+        const auto& v = map.path[i];
+        const Link& l = v.link;
+        sqlite3_bind_int64(p.get(), 1, static_cast<int64_t>(i));
+        sqlite3_bind_int64(p.get(), 2, v.state_id);
+        sqlite3_bind_int(p.get(), 3, (i > 0 && l.known) ? 1 : 0);
+        sqlite3_bind_double(p.get(), 4, l.action.x);
+        sqlite3_bind_double(p.get(), 5, l.action.y);
+        sqlite3_bind_double(p.get(), 6, l.action.theta);
+        sqlite3_bind_double(p.get(), 7, l.model.relative_translation);
+        sqlite3_bind_double(p.get(), 8, l.model.relative_rotation);
+        sqlite3_bind_double(p.get(), 9, l.model.odometry_translation);
+        sqlite3_bind_double(p.get(), 10, l.model.odometry_rotation);
+        const auto cov = toBlob(l.covariance.data(), 9);  // symmetric: row- = column-major
+        sqlite3_bind_blob(p.get(), 11, cov.data(), static_cast<int>(cov.size()), SQLITE_TRANSIENT);
+        p.done();
+      }
+    }
+    db.exec("COMMIT;");
+  }
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) throw MapFileError(file.string() + ": cannot replace: " + ec.message());
+}
+
+SavedMap loadMap(const std::filesystem::path& file) {
+  if (!std::filesystem::is_regular_file(file)) {
+    throw MapFileError(file.string() + ": no such map file");
+  }
+  Db db(file, SQLITE_OPEN_READONLY);
+  const std::string name = file.string();
+  SavedMap m;
+  std::map<std::string, std::string> meta;
+  try {
+    Statement s(db, "SELECT key, value FROM meta");
+    while (s.step()) {
+      const auto* k = sqlite3_column_text(s.get(), 0);
+      const auto* v = sqlite3_column_text(s.get(), 1);
+      if (k && v) meta[reinterpret_cast<const char*>(k)] = reinterpret_cast<const char*>(v);
+    }
+  } catch (const MapFileError&) {
+    throw MapFileError(name + ": not an appearance map (no meta table)");
+  }
+  if (meta["format"] != kFormat) throw MapFileError(name + ": not an appearance map");
+  if (meta["version"] != kVersion) {
+    throw MapFileError(name + ": map version '" + meta["version"] + "', expected " + kVersion);
+  }
+  try {
+    m.bins = std::stoi(meta["bins"]);
+  } catch (const std::exception&) {
+    throw MapFileError(name + ": bad bins '" + meta["bins"] + "'");
+  }
+  if (m.bins < 1) throw MapFileError(name + ": bad bins " + meta["bins"]);
+  {
+    std::stringstream ss(meta["cameras"]);
+    std::string c;
+    while (std::getline(ss, c, ',')) m.cameras.push_back(c);
+  }
+  if (m.cameras.empty()) throw MapFileError(name + ": no cameras");
+
+  std::map<int64_t, size_t> index;
+  {
+    Statement s(db,
+                "SELECT state_id, utime, odom_x, odom_y, odom_theta FROM states ORDER BY rowid");
+    while (s.step()) {
+      State st;
+      st.id = sqlite3_column_int64(s.get(), 0);
+      st.utime = sqlite3_column_int64(s.get(), 1);
+      st.odometry = {sqlite3_column_double(s.get(), 2), sqlite3_column_double(s.get(), 3),
+                     sqlite3_column_double(s.get(), 4)};
+      if (st.id < 0) throw MapFileError(name + ": negative state id");
+      st.histograms.assign(m.cameras.size(), Histogram{});
+      index[st.id] = m.states.size();
+      m.states.push_back(std::move(st));
+    }
+  }
+  {
+    Statement s(db, "SELECT state_id, camera, bins FROM histograms");
+    while (s.step()) {
+      const int64_t id = sqlite3_column_int64(s.get(), 0);
+      const int camera = sqlite3_column_int(s.get(), 1);
+      const auto it = index.find(id);
+      if (it == index.end() || camera < 0 || camera >= static_cast<int>(m.cameras.size())) {
+        throw MapFileError(name + ": histogram of unknown state " + std::to_string(id) +
+                           " / camera " + std::to_string(camera));
+      }
+      Histogram h;
+      if (!fromBlob(s.get(), 2, &h) || (!h.empty() && static_cast<int>(h.size()) != m.bins)) {
+        throw MapFileError(name + ": histogram of state " + std::to_string(id) + " does not have " +
+                           std::to_string(m.bins) + " bins");
+      }
+      m.states[it->second].histograms[static_cast<size_t>(camera)] = std::move(h);
+    }
+  }
+  {
+    Statement s(db,
+                "SELECT state_id, known, dx, dy, dtheta, relative_translation, relative_rotation,"
+                " odometry_translation, odometry_rotation, covariance FROM path ORDER BY seq");
+    while (s.step()) {
+      SavedMap::Visit v;
+      v.state_id = sqlite3_column_int64(s.get(), 0);
+      if (!index.count(v.state_id)) {
+        throw MapFileError(name + ": path visits unknown state " + std::to_string(v.state_id));
+      }
+      v.link.known = sqlite3_column_int(s.get(), 1) != 0;
+      v.link.action = {sqlite3_column_double(s.get(), 2), sqlite3_column_double(s.get(), 3),
+                       sqlite3_column_double(s.get(), 4)};
+      v.link.model.relative_translation = sqlite3_column_double(s.get(), 5);
+      v.link.model.relative_rotation = sqlite3_column_double(s.get(), 6);
+      v.link.model.odometry_translation = sqlite3_column_double(s.get(), 7);
+      v.link.model.odometry_rotation = sqlite3_column_double(s.get(), 8);
+      std::vector<double> cov;
+      if (!fromBlob(s.get(), 9, &cov) || cov.size() != 9) {
+        throw MapFileError(name + ": path row without a 3x3 covariance");
+      }
+      for (int i = 0; i < 9; ++i) v.link.covariance.data()[i] = cov[static_cast<size_t>(i)];
+      if (!v.link.action.isFinite() || !v.link.covariance.allFinite()) {
+        throw MapFileError(name + ": non-finite link in the path");
+      }
+      m.path.push_back(v);
+    }
+  }
+  return m;
+}
+
+}  // namespace vslam::appearance

@@ -1,0 +1,408 @@
+#include "appearance/path_hypotheses.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace vslam::appearance {
+namespace {
+
+// The robot's pose relative to a state, traced back one link: given the
+// pose R of the robot in the frame of a link's `to` state and the link's
+// action a (pose of `to` in the frame of `from`), the robot in `from`'s
+// frame is a (+) R, with covariance J_a S_a J_a^T + J_R S_R J_R^T.
+struct Trace {
+  Pose2 pose;
+  Eigen::Matrix3d covariance;
+
+  void prepend(const Link& link) {
+    const Pose2& a = link.action;
+    const double c = std::cos(a.theta), s = std::sin(a.theta);
+    Eigen::Matrix3d ja;
+    ja << 1, 0, -s * pose.x - c * pose.y,  //
+        0, 1, c * pose.x - s * pose.y,     //
+        0, 0, 1;
+    Eigen::Matrix3d jr;
+    jr << c, -s, 0,  //
+        s, c, 0,     //
+        0, 0, 1;
+    covariance = ja * link.covariance * ja.transpose() + jr * covariance * jr.transpose();
+    pose = a.compose(pose);
+  }
+};
+
+// Covariance of the inverse of a pose with covariance s.
+Eigen::Matrix3d inverseCovariance(const Pose2& p, const Eigen::Matrix3d& s) {
+  const double c = std::cos(p.theta), sn = std::sin(p.theta);
+  Eigen::Matrix3d j;
+  j << -c, -sn, sn * p.x - c * p.y,  //
+      sn, -c, c * p.x + sn * p.y,    //
+      0, 0, -1;
+  return j * s * j.transpose();
+}
+
+}  // namespace
+
+Eigen::Matrix3d ActionErrorModel::covariance(const Pose2& action) const {
+  const double d = std::hypot(action.x, action.y);
+  const double a = std::abs(action.theta);
+  const double var_t = relative_translation * relative_translation * d * d +
+                       odometry_translation * odometry_translation * d;
+  const double var_r = relative_rotation * relative_rotation * a * a +
+                       odometry_rotation * odometry_rotation * (d + a);
+  const double heading = d > 1e-9 ? std::atan2(action.y, action.x) : 0.0;
+  const double c = std::cos(heading), s = std::sin(heading);
+  Eigen::Matrix3d q = Eigen::Matrix3d::Zero();
+  q(0, 0) = c * c * var_t;
+  q(0, 1) = q(1, 0) = c * s * var_t;
+  q(1, 1) = s * s * var_t;
+  q(2, 2) = var_r;
+  return q;
+}
+
+PathNode::~PathNode() {
+  // Dropping the last reference to a long path would otherwise recurse once per node.
+  std::shared_ptr<PathNode> p = std::move(parent);
+  while (p && p.use_count() == 1) {
+    std::shared_ptr<PathNode> next = std::move(p->parent);
+    p = std::move(next);
+  }
+}
+
+AppearanceSlam::AppearanceSlam(SlamParams params, int num_cameras, int bins)
+    : params_(params), num_cameras_(num_cameras), bins_(bins) {
+  if (num_cameras < 1 || bins < 1) {
+    throw std::invalid_argument("AppearanceSlam: need at least one camera and one bin");
+  }
+  if (params_.max_hypotheses < 1) throw std::invalid_argument("max_hypotheses must be >= 1");
+}
+
+const State& AppearanceSlam::state(int64_t id) const {
+  if (id < 0 || id >= static_cast<int64_t>(states_.size()) ||
+      states_[static_cast<size_t>(id)].id != id) {
+    throw std::out_of_range("no appearance state " + std::to_string(id));
+  }
+  return states_[static_cast<size_t>(id)];
+}
+
+double AppearanceSlam::distance(const std::vector<Histogram>& a, const std::vector<Histogram>& b) {
+  double sum = 0;
+  int n = 0;
+  for (size_t c = 0; c < std::min(a.size(), b.size()); ++c) {
+    if (a[c].empty() || b[c].empty()) continue;
+    sum += chiSquare(a[c], b[c]);
+    ++n;
+  }
+  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
+int64_t AppearanceSlam::addState(const Snapshot& z) {
+  if (static_cast<int>(z.histograms.size()) != num_cameras_) {
+    throw std::invalid_argument("snapshot has " + std::to_string(z.histograms.size()) +
+                                " histograms for " + std::to_string(num_cameras_) + " cameras");
+  }
+  for (const auto& h : z.histograms) {
+    if (!h.empty() && static_cast<int>(h.size()) != bins_) {
+      throw std::invalid_argument("snapshot histogram has " + std::to_string(h.size()) +
+                                  " bins, the map " + std::to_string(bins_));
+    }
+  }
+  State s;
+  s.id = static_cast<int64_t>(states_.size());
+  s.utime = z.utime;
+  s.odometry = z.odometry;
+  s.histograms = z.histograms;
+  states_.push_back(std::move(s));
+  chi2_cache_.assign(states_.size(), -1.0);
+  seen_.resize(states_.size(), 0);
+  trace_pose_.resize(states_.size());
+  trace_cov_.resize(states_.size());
+  return states_.back().id;
+}
+
+double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histogram>& z) {
+  double& chi2 = chi2_cache_[static_cast<size_t>(state_id)];
+  if (chi2 < 0) {
+    chi2 = distance(z, states_[static_cast<size_t>(state_id)].histograms);
+    // Nothing to compare (a camera missing on either side): no evidence either way.
+    if (!std::isfinite(chi2)) chi2 = params_.new_state_chi2;
+  }
+  return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
+}
+
+void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>& cameras) {
+  if (initialized() || !states_.empty()) {
+    throw std::logic_error("loadMap: the map must be loaded before the first snapshot");
+  }
+  if (map.cameras != cameras) throw std::invalid_argument("map was made with other cameras");
+  if (map.bins != bins_) {
+    throw std::invalid_argument("map has " + std::to_string(map.bins) + " bins, config " +
+                                std::to_string(bins_));
+  }
+  if (map.path.empty()) return;
+  int64_t max_id = -1;
+  for (const auto& s : map.states) max_id = std::max(max_id, s.id);
+  states_.assign(static_cast<size_t>(max_id + 1), State{});
+  for (const auto& s : map.states) {
+    if (s.id < 0) throw std::invalid_argument("map state with negative id");
+    if (static_cast<int>(s.histograms.size()) != num_cameras_) {
+      throw std::invalid_argument("map state " + std::to_string(s.id) + " has " +
+                                  std::to_string(s.histograms.size()) + " histograms");
+    }
+    states_[static_cast<size_t>(s.id)] = s;
+  }
+  std::shared_ptr<PathNode> node;
+  std::vector<bool> visited(states_.size(), false);
+  for (const auto& v : map.path) {
+    if (v.state_id < 0 || v.state_id > max_id || states_[static_cast<size_t>(v.state_id)].id < 0) {
+      throw std::invalid_argument("map path visits unknown state " + std::to_string(v.state_id));
+    }
+    auto n = std::make_shared<PathNode>();
+    n->hypothesis_id = -1;
+    n->state_id = v.state_id;
+    n->step = -1;
+    n->is_new = !visited[static_cast<size_t>(v.state_id)];
+    visited[static_cast<size_t>(v.state_id)] = true;
+    n->link = v.link;
+    if (!node) n->link.known = false;
+    n->path_length = node ? node->path_length + 1 : 1;
+    n->num_states = (node ? node->num_states : 0) + (n->is_new ? 1 : 0);
+    n->parent = std::move(node);
+    node = std::move(n);
+  }
+  loaded_path_ = std::move(node);
+  chi2_cache_.assign(states_.size(), -1.0);
+  seen_.assign(states_.size(), 0);
+  trace_pose_.resize(states_.size());
+  trace_cov_.resize(states_.size());
+}
+
+StepResult AppearanceSlam::initialize(const Snapshot& z) {
+  if (initialized()) throw std::logic_error("initialize: already initialized");
+  const int64_t id = addState(z);
+  std::vector<Child> children;
+  Link unknown;
+  unknown.known = false;
+  children.push_back({loaded_path_, id, true, unknown, 0.0});
+  if (loaded_path_) {
+    // "At state k of the map": linked from the map path's end by the pose of
+    // k in the end's frame, traced through the map (the robot's relation to
+    // the map is unknown: every state is equally likely a priori).
+    const double log_new =
+        -params_.beta * std::log(std::max(params_.new_state_chi2, params_.min_chi2));
+    children.front().log_weight = log_new;
+    ++generation_;
+    Trace t{Pose2{}, Eigen::Matrix3d::Zero()};
+    for (const PathNode* n = loaded_path_.get(); n; n = n->parent.get()) {
+      if (seen_[static_cast<size_t>(n->state_id)] != generation_) {
+        seen_[static_cast<size_t>(n->state_id)] = generation_;
+        Link link;
+        link.action = t.pose.inverse();
+        link.covariance = inverseCovariance(t.pose, t.covariance);
+        link.model = action_model_;
+        children.push_back(
+            {loaded_path_, n->state_id, false, link, observationLog(n->state_id, z.histograms)});
+      }
+      if (!n->parent || !n->link.known) break;
+      t.prepend(n->link);
+    }
+  }
+  loaded_path_.reset();
+  return select(std::move(children), id);
+}
+
+void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snapshot& z,
+                            int64_t new_state, std::vector<Child>* children, int* candidates) {
+  const double log_belief = std::log(h.belief);
+  const double log_new =
+      -params_.beta * std::log(std::max(params_.new_state_chi2, params_.min_chi2));
+  children->push_back({h.node, new_state, true, action, log_belief + log_new});
+
+  // The path back from the leaf, with the robot's traced pose in the frame of
+  // each visit's state (forward in time from that visit to now).
+  chain_.clear();
+  chain_pose_.clear();
+  chain_cov_.clear();
+  Trace t{action.action, action.covariance};
+  for (const PathNode* n = h.node.get(); n; n = n->parent.get()) {
+    chain_.push_back(n);
+    chain_pose_.push_back(t.pose);
+    chain_cov_.push_back(t.covariance);
+    if (!n->parent || !n->link.known) break;
+    t.prepend(n->link);
+  }
+  // Each state's last visit.
+  ++generation_;
+  candidates_.clear();
+  const auto offer = [&](int64_t state, const Pose2& pose, const Eigen::Matrix3d& cov) {
+    const size_t s = static_cast<size_t>(state);
+    if (seen_[s] != generation_) {
+      seen_[s] = generation_;
+      trace_pose_[s] = pose;
+      trace_cov_[s] = cov;
+      candidates_.push_back(state);
+    } else if (cov.trace() < trace_cov_[s].trace()) {
+      trace_pose_[s] = pose;
+      trace_cov_[s] = cov;
+    }
+  };
+  size_t revisit = chain_.size();  // the most recent revisit on the path
+  for (size_t i = 0; i < chain_.size(); ++i) {
+    const size_t s = static_cast<size_t>(chain_[i]->state_id);
+    if (seen_[s] != generation_) offer(chain_[i]->state_id, chain_pose_[i], chain_cov_[i]);
+    if (revisit == chain_.size() && !chain_[i]->is_new) revisit = i;
+  }
+  // Through the revisit: from the previous visit of the same state, both ways.
+  if (params_.revisit_horizon > 0 && revisit < chain_.size()) {
+    const int64_t p = chain_[revisit]->state_id;
+    size_t q = revisit + 1;
+    while (q < chain_.size() && chain_[q]->state_id != p) ++q;
+    if (q < chain_.size()) {
+      const size_t horizon = static_cast<size_t>(params_.revisit_horizon);
+      // Backward in time from q: the usual trace, started at P.
+      Trace back{chain_pose_[revisit], chain_cov_[revisit]};
+      for (size_t j = q; j + 1 < chain_.size() && j < q + horizon; ++j) {
+        if (!chain_[j]->link.known) break;
+        back.prepend(chain_[j]->link);
+        offer(chain_[j + 1]->state_id, back.pose, back.covariance);
+      }
+      // Forward in time from q: links used in reverse.
+      Trace fwd{chain_pose_[revisit], chain_cov_[revisit]};
+      for (size_t j = q; j > revisit + 1 && j + horizon > q; --j) {
+        const Link& next = chain_[j - 1]->link;  // from chain_[j]'s state to chain_[j-1]'s
+        if (!next.known) break;
+        Link reverse;
+        reverse.action = next.action.inverse();
+        reverse.covariance = inverseCovariance(next.action, next.covariance);
+        fwd.prepend(reverse);
+        offer(chain_[j - 1]->state_id, fwd.pose, fwd.covariance);
+      }
+    }
+  }
+
+  Eigen::Matrix3d place = Eigen::Matrix3d::Zero();
+  place(0, 0) = place(1, 1) = params_.place_sigma_m * params_.place_sigma_m;
+  place(2, 2) = params_.place_sigma_rad * params_.place_sigma_rad;
+  for (const int64_t state : candidates_) {
+    const size_t s = static_cast<size_t>(state);
+    const Pose2& r = trace_pose_[s];
+    const Eigen::Vector3d v(r.x, r.y, wrapAngle(r.theta));
+    const double m2 = v.dot((trace_cov_[s] + place).inverse() * v);
+    if (m2 > params_.gate) continue;
+    ++*candidates;
+    children->push_back({h.node, state, false, action,
+                         log_belief - 0.5 * m2 + observationLog(state, z.histograms)});
+  }
+}
+
+StepResult AppearanceSlam::step(const Pose2& action, const Snapshot& z) {
+  if (!initialized()) throw std::logic_error("step: initialize with the first snapshot first");
+  if (!action.isFinite()) throw std::invalid_argument("step: non-finite action");
+  ++step_;
+  const int64_t id = addState(z);
+  Link link;
+  link.action = action;
+  link.model = action_model_;
+  link.covariance = action_model_.covariance(action);
+  std::vector<Child> children;
+  int candidates = 0;
+  for (const auto& h : hypotheses_) expand(h, link, z, id, &children, &candidates);
+  StepResult r = select(std::move(children), id);
+  r.revisit_candidates = candidates;
+  return r;
+}
+
+StepResult AppearanceSlam::select(std::vector<Child> children, int64_t new_state) {
+  StepResult r;
+  r.step = step_;
+  r.new_state_id = new_state;
+  r.children = static_cast<int>(children.size());
+  double max_lw = -std::numeric_limits<double>::infinity();
+  for (const auto& c : children) {
+    if (std::isfinite(c.log_weight)) max_lw = std::max(max_lw, c.log_weight);
+  }
+  std::vector<std::pair<double, size_t>> order;  // (belief, child)
+  if (std::isfinite(max_lw)) {
+    double total = 0;
+    for (size_t i = 0; i < children.size(); ++i) {
+      const double w =
+          std::isfinite(children[i].log_weight) ? std::exp(children[i].log_weight - max_lw) : 0.0;
+      total += w;
+      order.emplace_back(w, i);
+    }
+    for (auto& o : order) o.first /= total;
+    // Highest belief first; ties in creation order (deterministic).
+    std::stable_sort(order.begin(), order.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    size_t keep = 1;  // the most believed always survives
+    while (keep < order.size() && order[keep].first >= params_.min_belief) ++keep;
+    r.pruned_threshold = static_cast<int>(order.size() - keep);
+    const size_t bound = static_cast<size_t>(params_.max_hypotheses);
+    if (keep > bound) {
+      r.pruned_bound = static_cast<int>(keep - bound);
+      keep = bound;
+    }
+    order.resize(keep);
+  } else {
+    // Nothing finite (non-finite input): restart from the snapshot as a new
+    // state, not linked to the old map.
+    r.lost = true;
+    Child c{hypotheses_.empty() ? nullptr : best().node, new_state, true, Link{}, 0.0};
+    c.link.known = false;
+    children.assign(1, c);
+    order.assign(1, {1.0, 0});
+  }
+
+  double total = 0;
+  for (const auto& o : order) total += o.first;
+  std::vector<Hypothesis> next;
+  next.reserve(order.size());
+  for (const auto& [belief, i] : order) {
+    Child& c = children[i];
+    auto n = std::make_shared<PathNode>();
+    n->hypothesis_id = next_hypothesis_++;
+    n->state_id = c.state_id;
+    n->step = step_;
+    n->is_new = c.is_new;
+    n->link = c.link;
+    n->path_length = c.parent ? c.parent->path_length + 1 : 1;
+    n->num_states = (c.parent ? c.parent->num_states : 0) + (c.is_new ? 1 : 0);
+    n->parent = c.parent;
+    next.push_back({std::move(n), belief / total});
+    const PathNode& node = *next.back().node;
+    HypothesisInfo info;
+    info.hypothesis_id = node.hypothesis_id;
+    info.parent_id = node.parent ? node.parent->hypothesis_id : -1;
+    info.state_id = node.state_id;
+    info.is_new_state = node.is_new;
+    info.belief = next.back().belief;
+    info.path_length = node.path_length;
+    r.hypotheses.push_back(info);
+  }
+  hypotheses_ = std::move(next);
+  return r;
+}
+
+SavedMap AppearanceSlam::bestMap(const std::vector<std::string>& cameras) const {
+  SavedMap m;
+  m.cameras = cameras;
+  m.bins = bins_;
+  if (!initialized()) return m;
+  std::vector<const PathNode*> chain;
+  for (const PathNode* n = best().node.get(); n; n = n->parent.get()) chain.push_back(n);
+  std::reverse(chain.begin(), chain.end());
+  std::vector<bool> added(states_.size(), false);
+  for (const PathNode* n : chain) {
+    m.path.push_back({n->state_id, n->link});
+    if (!added[static_cast<size_t>(n->state_id)]) {
+      added[static_cast<size_t>(n->state_id)] = true;
+      m.states.push_back(states_[static_cast<size_t>(n->state_id)]);
+    }
+  }
+  if (!m.path.empty()) m.path.front().link.known = false;
+  return m;
+}
+
+}  // namespace vslam::appearance

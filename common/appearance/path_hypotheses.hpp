@@ -1,0 +1,244 @@
+#pragma once
+// Appearance-based SLAM after Lee & Sowmya: a topological map of snapshot
+// states joined by links (executed actions), and a tree of path hypotheses
+// over it. No LCM; the stage (common/stages/appearance_stage.hpp) feeds it
+// actions and snapshots.
+//
+// Per step, after action u_t and snapshot z_{t+1} (paper section V, Fig. 4):
+//   For each path hypothesis p (a leaf of the tree: the path it took and the
+//   state it ends in):
+//     - Prediction. A child for "the robot is in a state never visited": a
+//       new state holding z_{t+1}, linked from p's last state by u_t. A child
+//       for each state x_k already on p's path that is reachable: the
+//       transitional probability P(x_k | p, u_t) comes from tracing forward
+//       in time from x_k's last visit on p along every action since, to the
+//       robot's pose now, with first-order propagation of each action's
+//       error model (Fig. 3): the robot is back in x_k if that traced pose
+//       overlaps x_k,
+//         m^2 = r^T (S_trace + S_place)^-1 r,   r = traced pose of the robot in x_k's frame,
+//         P(x_k | p, u) = exp(-m^2 / 2) if m^2 <= gate, else no child;
+//       S_place is the extent of a state (how far from a snapshot's pose the
+//       robot still is "there"). The new state is always possible: P = 1.
+//     - Observation. P(z | x_k) = 1 / (chi2(h_z, h_k))^beta (eq. 5), with
+//       chi2 the mean over cameras of the chi-square distance of their
+//       gradient-orientation histograms (eq. 4), floored at min_chi2. A new
+//       state cannot be compared with anything; it is scored as if its
+//       distance were new_state_chi2: P(z | new) = 1 / new_state_chi2^beta.
+//     - Update. theta(child) = alpha P(z | x) P(x | p, u) theta(p) (eq. 6),
+//       alpha normalising over every child of every hypothesis.
+//   Children whose belief is below min_belief are pruned (the most believed
+//   one always survives), at most max_hypotheses are kept (highest belief
+//   first), and the survivors are renormalised.
+//
+// Tracing through a revisit (an addition to the paper, which traces along
+// the path only). A path that re-visits state P at step r claims the robot
+// was at P then as at P's previous visit at step q; the loop between adds
+// only action noise. So besides the trace along the path, each state within
+// revisit_horizon links of P's previous visit is also traced from the robot
+// through P: backward in time along the path before q, and forward in time
+// along the links after q, each link used in reverse (pose of P's successor
+// in P's frame, inverted). Of the two traces of a state the one with the
+// smaller covariance (trace of the matrix) is used. Without this, once a
+// path has closed a loop, the state after P would be predicted from the
+// state's own visit a whole lap ago, and a re-localised hypothesis could
+// not follow the map's states step by step.
+//
+// Each hypothesis implies its own map: the states it created (new-state
+// steps) and the links along its path. The map of the most believed
+// hypothesis is the map the process publishes and saves.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "appearance/gradient_histogram.hpp"
+#include "odometry/pose2.hpp"
+
+namespace vslam::appearance {
+
+// Error model of an executed action (the link's "uncertainty model"): the
+// paper's error proportional to the action (3 % in its experiment) plus the
+// odometry's random-walk noise (the motion model of common/odometry):
+//   var(translation) = (relative_translation d)^2 + odometry_translation^2 d
+//   var(rotation)    = (relative_rotation |dtheta|)^2 + odometry_rotation^2 (d + |dtheta|)
+// d = distance of the action; translation error along its direction.
+struct ActionErrorModel {
+  double relative_translation = 0.03;  // per metre travelled
+  double relative_rotation = 0.03;     // per radian turned
+  double odometry_translation = 0.0;   // m / sqrt(m)
+  double odometry_rotation = 0.0;      // rad / sqrt(m + rad)
+
+  Eigen::Matrix3d covariance(const Pose2& action) const;
+};
+
+// A link: an action from one state to the next and its error model.
+struct Link {
+  Pose2 action;  // pose of the `to` state in the frame of the `from` state (odometry)
+  ActionErrorModel model;
+  bool known = true;  // false: the robot was put down somewhere unknown (no tracing across)
+  // Covariance of `action`, from `model`, or given directly (a link
+  // through a loaded map, whose uncertainty is that of the traced path).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+
+// A snapshot state: where it was taken and what it saw (one histogram per camera).
+struct State {
+  int64_t id = -1;
+  int64_t utime = 0;  // microseconds
+  Pose2 odometry;     // cumulative odometry at the snapshot (informational)
+  std::vector<Histogram> histograms;
+};
+
+struct Snapshot {
+  int64_t utime = 0;
+  Pose2 odometry;
+  std::vector<Histogram> histograms;  // per camera, in the cameras' order; empty: camera missing
+};
+
+// One node of the path-hypothesis tree: a visit of a state. A leaf is a
+// hypothesis; the path from the root to it is the robot path it claims.
+struct PathNode {
+  std::shared_ptr<PathNode> parent;  // null at the root
+  int64_t hypothesis_id = 0;
+  int64_t state_id = 0;
+  int64_t step = 0;
+  bool is_new = true;       // this visit created the state
+  Link link;                // from the parent's state (unused at the root)
+  int32_t path_length = 1;  // visits from the root
+  int32_t num_states = 1;   // states this path created (its map's size)
+
+  PathNode() = default;
+  PathNode(const PathNode&) = delete;
+  PathNode& operator=(const PathNode&) = delete;
+  ~PathNode();  // releases long parent chains iteratively (no deep recursion)
+};
+
+struct Hypothesis {
+  std::shared_ptr<PathNode> node;
+  double belief = 0;
+};
+
+struct SlamParams {
+  double beta = 1.0;              // eq. 5 exponent
+  double new_state_chi2 = 0.1;    // P(z | new) = new_state_chi2^-beta
+  double min_chi2 = 1e-4;         // floor of the distance in eq. 5
+  double gate = 11.34;            // max Mahalanobis^2 of a revisit (chi2 3 dof, 99 %)
+  double place_sigma_m = 0.25;    // extent of a state, metres
+  double place_sigma_rad = 0.17;  // ... and radians
+  double min_belief = 1e-3;       // pruning threshold
+  int max_hypotheses = 20;        // bound
+  // Links traced on either side of the state the path last re-visited (see
+  // "Tracing through a revisit" above); 0 traces along the path only.
+  int revisit_horizon = 10;
+};
+
+// A saved map: the states of the most believed hypothesis and its path in
+// time order (the first visit has no link), so that a later run can trace
+// through it.
+struct SavedMap {
+  std::vector<std::string> cameras;
+  int bins = 0;
+  std::vector<State> states;
+  struct Visit {
+    int64_t state_id = 0;
+    Link link;  // from the previous visit; ignored for the first
+  };
+  std::vector<Visit> path;
+};
+
+struct HypothesisInfo {
+  int64_t hypothesis_id = 0;
+  int64_t parent_id = -1;
+  int64_t state_id = 0;
+  bool is_new_state = false;
+  double belief = 0;
+  int32_t path_length = 0;
+};
+
+struct StepResult {
+  int64_t step = 0;
+  int64_t new_state_id = -1;               // the state the snapshot would be if new
+  std::vector<HypothesisInfo> hypotheses;  // most believed first
+  int children = 0;                        // before pruning
+  int pruned_threshold = 0;                // below min_belief
+  int pruned_bound = 0;                    // beyond max_hypotheses
+  int revisit_candidates = 0;              // reachable (state, hypothesis) pairs evaluated
+  bool lost = false;                       // no finite belief: restarted from a single new state
+  const HypothesisInfo& best() const { return hypotheses.front(); }
+};
+
+class AppearanceSlam {
+ public:
+  AppearanceSlam(SlamParams params, int num_cameras, int bins);
+
+  // Starts from a saved map (before the first snapshot). The first snapshot
+  // then splits into "a new state" and "each state of the map" (global
+  // localisation). Throws std::invalid_argument if cameras or bins differ.
+  void loadMap(const SavedMap& map, const std::vector<std::string>& cameras);
+
+  bool initialized() const { return !hypotheses_.empty(); }
+  // The first snapshot z_0 (paper section VI): one hypothesis, a new state;
+  // with a loaded map, also one per map state.
+  StepResult initialize(const Snapshot& z);
+  // One step: action u_t executed from the last snapshot, then snapshot z.
+  StepResult step(const Pose2& action, const Snapshot& z);
+
+  const std::vector<Hypothesis>& hypotheses() const { return hypotheses_; }
+  const Hypothesis& best() const { return hypotheses_.front(); }
+  const State& state(int64_t id) const;
+  int64_t numStatesStored() const { return static_cast<int64_t>(states_.size()); }
+  int64_t stepCount() const { return step_; }
+
+  // The map of the most believed hypothesis: its states (in creation order)
+  // and path.
+  SavedMap bestMap(const std::vector<std::string>& cameras) const;
+
+  const SlamParams& params() const { return params_; }
+  const ActionErrorModel& actionModel() const { return action_model_; }
+  void setActionModel(const ActionErrorModel& model) { action_model_ = model; }
+
+  // Mean chi-square over the cameras both have (eq. 4 per camera); the new
+  // snapshot is compared with stored states through this.
+  static double distance(const std::vector<Histogram>& a, const std::vector<Histogram>& b);
+
+ private:
+  struct Child {
+    std::shared_ptr<PathNode> parent;
+    int64_t state_id;
+    bool is_new;
+    Link link;
+    double log_weight;
+  };
+  int64_t addState(const Snapshot& z);
+  double observationLog(int64_t state_id, const std::vector<Histogram>& z);
+  void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
+              std::vector<Child>* children, int* candidates);
+  StepResult select(std::vector<Child> children, int64_t new_state);
+
+  SlamParams params_;
+  ActionErrorModel action_model_;
+  int num_cameras_;
+  int bins_;
+  std::vector<State> states_;  // by id; id -1 marks a hole (loaded maps)
+  std::vector<Hypothesis> hypotheses_;
+  std::shared_ptr<PathNode> loaded_path_;  // end of a loaded map's path, until the first snapshot
+  int64_t step_ = 0;
+  int64_t next_hypothesis_ = 0;
+  // Per step: chi-square of the new snapshot against each state (-1: not computed).
+  std::vector<double> chi2_cache_;
+  // Per hypothesis walk: the generation in which a state was last seen, and
+  // the best trace of the robot in its frame.
+  std::vector<uint32_t> seen_;
+  uint32_t generation_ = 0;
+  std::vector<Eigen::Matrix3d> trace_cov_;
+  std::vector<Pose2> trace_pose_;
+  std::vector<const PathNode*> chain_;
+  std::vector<Pose2> chain_pose_;
+  std::vector<Eigen::Matrix3d> chain_cov_;
+  std::vector<int64_t> candidates_;
+};
+
+}  // namespace vslam::appearance

@@ -1,0 +1,415 @@
+#include "eval/appearance_eval.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <ostream>
+#include <sstream>
+#include <vslam/appearance_event_t.hpp>
+#include <vslam/appearance_hypotheses_t.hpp>
+#include <vslam/appearance_map_t.hpp>
+#include <vslam/ground_truth_pose_t.hpp>
+
+#include "eval/cli_args.hpp"
+#include "eval/errors.hpp"
+#include "eval/log_reader.hpp"
+#include "eval/plot.hpp"
+#include "util/angles.hpp"
+#include "util/log.hpp"
+
+namespace vslam::eval {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct TruePose {
+  int64_t utime;
+  double x, y, theta;
+};
+
+// Ground truth at a time, linearly interpolated; false outside the log's span.
+bool truthAt(const std::vector<TruePose>& truth, int64_t utime, TruePose* out) {
+  if (truth.empty() || utime < truth.front().utime || utime > truth.back().utime) return false;
+  const auto it = std::lower_bound(truth.begin(), truth.end(), utime,
+                                   [](const TruePose& p, int64_t t) { return p.utime < t; });
+  if (it->utime == utime || it == truth.begin()) {
+    *out = *it;
+    return true;
+  }
+  const TruePose& a = *std::prev(it);
+  const TruePose& b = *it;
+  const double s = static_cast<double>(utime - a.utime) / static_cast<double>(b.utime - a.utime);
+  *out = {utime, a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
+          wrapAngle(a.theta + s * wrapAngle(b.theta - a.theta))};
+  return true;
+}
+
+double mean(const std::vector<double>& v) {
+  if (v.empty()) return kNaN;
+  double s = 0;
+  for (double x : v) s += x;
+  return s / static_cast<double>(v.size());
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string fmt(double v, int decimals = 3) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(decimals) << v;
+  return os.str();
+}
+
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream os;
+  os << std::setprecision(9) << v;
+  return os.str();
+}
+
+}  // namespace
+
+double AppearanceHypothesisError::position() const { return std::hypot(ex, ey); }
+
+AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEvalOptions& options) {
+  AppearanceReport r;
+  r.input = log.string();
+  r.options = options;
+  std::vector<TruePose> truth;
+  std::vector<vslam::appearance_hypotheses_t> steps;
+  std::vector<vslam::appearance_event_t> events;
+  std::map<int64_t, int64_t> state_utime;
+  const auto counts = forEachLogEvent(log, [&](const LogEventRef& e) {
+    const std::string& ch = e.event.channel;
+    if (ch == options.ref_channel) {
+      const auto m = decodeEvent<vslam::ground_truth_pose_t>(e, "vslam.ground_truth_pose_t");
+      truth.push_back({m.utime, m.x, m.y, m.theta});
+    } else if (ch == options.hypotheses_channel) {
+      steps.push_back(
+          decodeEvent<vslam::appearance_hypotheses_t>(e, "vslam.appearance_hypotheses_t"));
+    } else if (ch == options.event_channel) {
+      events.push_back(decodeEvent<vslam::appearance_event_t>(e, "vslam.appearance_event_t"));
+    } else if (ch == options.map_channel) {
+      const auto m = decodeEvent<vslam::appearance_map_t>(e, "vslam.appearance_map_t");
+      for (const auto& s : m.states) state_utime.emplace(s.state_id, s.utime);
+    }
+  });
+  if (steps.empty()) {
+    throw DataError(log.string() + ": no " + options.hypotheses_channel +
+                    " messages (channels: " + channelList(counts) + ")");
+  }
+  if (truth.empty()) {
+    throw DataError(log.string() + ": no ground truth on " + options.ref_channel +
+                    " (channels: " + channelList(counts) + ")");
+  }
+  std::sort(truth.begin(), truth.end(),
+            [](const TruePose& a, const TruePose& b) { return a.utime < b.utime; });
+  // The new-state hypothesis of each step names the state its snapshot made.
+  for (const auto& s : steps) {
+    for (const auto& h : s.hypotheses) {
+      if (h.is_new_state) state_utime[h.state_id] = s.utime;
+    }
+  }
+  std::map<int64_t, bool> created;
+  for (const auto& s : steps) {
+    for (const auto& h : s.hypotheses) {
+      if (h.is_new_state) created[h.state_id] = true;
+    }
+  }
+  r.states_created = static_cast<int64_t>(created.size());
+
+  const int64_t t0 = steps.front().utime;
+  // Error of "the robot is in state k" at time t: state's true pose minus the robot's.
+  auto errorOf = [&](int64_t state_id, int64_t utime, AppearanceHypothesisError* e) {
+    const auto it = state_utime.find(state_id);
+    TruePose now, then;
+    if (it == state_utime.end() || !truthAt(truth, utime, &now) ||
+        !truthAt(truth, it->second, &then)) {
+      return false;
+    }
+    e->ex = then.x - now.x;
+    e->ey = then.y - now.y;
+    e->eheading = wrapAngle(then.theta - now.theta);
+    return true;
+  };
+
+  std::vector<double> pos, heading, best_pos, step_seconds;
+  int64_t within = 0;
+  double hyp_sum = 0;
+  for (const auto& s : steps) {
+    AppearanceStepRow row;
+    row.step = s.step;
+    row.t = 1e-6 * static_cast<double>(s.utime - t0);
+    row.hypotheses = static_cast<int>(s.hypotheses.size());
+    row.mean_position_error = kNaN;
+    row.best_position_error = kNaN;
+    std::vector<double> step_pos;
+    for (size_t i = 0; i < s.hypotheses.size(); ++i) {
+      const auto& h = s.hypotheses[i];
+      if (h.is_new_state) continue;
+      ++row.revisits;
+      AppearanceHypothesisError e;
+      e.step = s.step;
+      e.state_id = h.state_id;
+      e.belief = h.belief;
+      if (!errorOf(h.state_id, s.utime, &e)) {
+        ++r.unknown_states;
+        continue;
+      }
+      r.errors.push_back(e);
+      step_pos.push_back(e.position());
+      pos.push_back(e.position());
+      heading.push_back(std::abs(e.eheading));
+      within += e.position() < options.action_length_m;
+      if (h.state_id == s.best_state_id && i == 0) row.best_position_error = e.position();
+    }
+    row.best_is_revisit = !s.hypotheses.empty() && !s.hypotheses.front().is_new_state;
+    row.mean_position_error = mean(step_pos);
+    if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
+      ++r.steps_best_revisit;
+      best_pos.push_back(row.best_position_error);
+    }
+    r.max_hypotheses = std::max(r.max_hypotheses, row.hypotheses);
+    hyp_sum += row.hypotheses;
+    step_seconds.push_back(s.step_seconds);
+    r.steps.push_back(row);
+  }
+  r.mean_hypotheses = hyp_sum / static_cast<double>(steps.size());
+  r.mean_position_error = mean(pos);
+  r.median_position_error = median(pos);
+  r.max_position_error = pos.empty() ? kNaN : *std::max_element(pos.begin(), pos.end());
+  r.mean_abs_heading_error = mean(heading);
+  r.fraction_within_action =
+      pos.empty() ? kNaN : static_cast<double>(within) / static_cast<double>(pos.size());
+  r.mean_best_position_error = mean(best_pos);
+  r.mean_step_seconds = mean(step_seconds);
+  r.max_step_seconds = *std::max_element(step_seconds.begin(), step_seconds.end());
+
+  for (const auto& ev : events) {
+    if (ev.event != vslam::appearance_event_t::EVENT_RELOCALIZED) continue;
+    AppearanceRelocalization rl;
+    rl.step = ev.step;
+    rl.t = 1e-6 * static_cast<double>(ev.utime - t0);
+    rl.state_id = ev.state_id;
+    rl.previous_state_id = ev.previous_state_id;
+    rl.belief = ev.belief;
+    AppearanceHypothesisError e;
+    if (errorOf(ev.state_id, ev.utime, &e)) {
+      rl.position_error = e.position();
+      rl.heading_error = e.eheading;
+      rl.correct = rl.position_error < options.action_length_m;
+    } else {
+      rl.position_error = rl.heading_error = kNaN;
+    }
+    r.relocalizations.push_back(rl);
+  }
+  return r;
+}
+
+void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
+  out << "appearance SLAM: " << r.input << "\n"
+      << "  steps                 " << r.steps.size() << " (states created " << r.states_created
+      << ")\n"
+      << "  hypotheses            mean " << fmt(r.mean_hypotheses, 1) << ", max "
+      << r.max_hypotheses << "\n"
+      << "  revisit hypotheses    " << r.errors.size() << " (new-state hypotheses excluded"
+      << (r.unknown_states ? ", " + std::to_string(r.unknown_states) + " without ground truth" : "")
+      << ")\n"
+      << "  position error        mean " << fmt(r.mean_position_error) << " m, median "
+      << fmt(r.median_position_error) << " m, max " << fmt(r.max_position_error) << " m; "
+      << fmt(100.0 * r.fraction_within_action, 1) << " % within "
+      << fmt(r.options.action_length_m, 2) << " m (one action)\n"
+      << "  heading error         mean |e| " << fmt(radToDeg(r.mean_abs_heading_error), 2)
+      << " deg\n"
+      << "  best is a revisit     " << r.steps_best_revisit << " steps, its mean position error "
+      << fmt(r.mean_best_position_error) << " m\n"
+      << "  step time             mean " << fmt(1e3 * r.mean_step_seconds, 2) << " ms, max "
+      << fmt(1e3 * r.max_step_seconds, 2) << " ms (as the process measured it)\n"
+      << "  re-localizations      " << r.relocalizations.size() << "\n";
+  for (const auto& rl : r.relocalizations) {
+    out << "    step " << std::setw(4) << rl.step << "  t " << std::setw(7) << fmt(rl.t, 1)
+        << " s  -> state " << std::setw(5) << rl.state_id << " (from " << rl.previous_state_id
+        << ")  belief " << fmt(rl.belief, 3) << "  true distance " << fmt(rl.position_error, 2)
+        << " m, heading " << fmt(radToDeg(rl.heading_error), 1) << " deg  "
+        << (std::isfinite(rl.position_error) ? (rl.correct ? "correct" : "WRONG") : "unknown")
+        << "\n";
+  }
+}
+
+void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
+  std::ofstream os(file);
+  if (!os) throw DataError(file.string() + ": cannot write");
+  os << "{\n  \"input\": \"" << r.input << "\",\n"
+     << "  \"steps\": " << r.steps.size() << ",\n"
+     << "  \"states_created\": " << r.states_created << ",\n"
+     << "  \"mean_hypotheses\": " << jsonNumber(r.mean_hypotheses) << ",\n"
+     << "  \"max_hypotheses\": " << r.max_hypotheses << ",\n"
+     << "  \"revisit_hypotheses\": " << r.errors.size() << ",\n"
+     << "  \"mean_position_error_m\": " << jsonNumber(r.mean_position_error) << ",\n"
+     << "  \"median_position_error_m\": " << jsonNumber(r.median_position_error) << ",\n"
+     << "  \"max_position_error_m\": " << jsonNumber(r.max_position_error) << ",\n"
+     << "  \"mean_abs_heading_error_rad\": " << jsonNumber(r.mean_abs_heading_error) << ",\n"
+     << "  \"fraction_within_action\": " << jsonNumber(r.fraction_within_action) << ",\n"
+     << "  \"steps_best_revisit\": " << r.steps_best_revisit << ",\n"
+     << "  \"mean_best_position_error_m\": " << jsonNumber(r.mean_best_position_error) << ",\n"
+     << "  \"mean_step_seconds\": " << jsonNumber(r.mean_step_seconds) << ",\n"
+     << "  \"relocalizations\": [";
+  for (size_t i = 0; i < r.relocalizations.size(); ++i) {
+    const auto& rl = r.relocalizations[i];
+    os << (i ? "," : "") << "\n    {\"step\": " << rl.step << ", \"t\": " << jsonNumber(rl.t)
+       << ", \"state_id\": " << rl.state_id << ", \"previous_state_id\": " << rl.previous_state_id
+       << ", \"belief\": " << jsonNumber(rl.belief)
+       << ", \"position_error_m\": " << jsonNumber(rl.position_error)
+       << ", \"heading_error_rad\": " << jsonNumber(rl.heading_error)
+       << ", \"correct\": " << (rl.correct ? "true" : "false") << "}";
+  }
+  os << "\n  ]\n}\n";
+  if (!os) throw DataError(file.string() + ": cannot write");
+}
+
+std::vector<fs::path> writeAppearancePlots(const fs::path& dir, const AppearanceReport& r,
+                                           cv::Size size) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw DataError(dir.string() + ": cannot create plot directory");
+  const cv::Scalar kBlack(0, 0, 0), kRed(40, 40, 220), kBlue(200, 90, 20), kGrey(150, 150, 150);
+
+  Figure count(size, "Number of path hypotheses (Fig. 8)", "step", "hypotheses");
+  PlotSeries all{"all hypotheses", kBlack, {}};
+  PlotSeries revisits{"in visited states", kBlue, {}};
+  for (const auto& s : r.steps) {
+    all.points.emplace_back(static_cast<double>(s.step), s.hypotheses);
+    revisits.points.emplace_back(static_cast<double>(s.step), s.revisits);
+  }
+  count.add(all);
+  count.add(revisits);
+  count.setYFromZero(true);
+  if (!r.relocalizations.empty()) {
+    PlotSeries marks{"re-localization", kRed, {}, PlotSeries::Style::kCircles, 2, 6};
+    for (const auto& rl : r.relocalizations) {
+      for (const auto& s : r.steps) {
+        if (s.step == rl.step) marks.points.emplace_back(static_cast<double>(s.step), s.hypotheses);
+      }
+    }
+    count.add(marks);
+  }
+
+  auto errorFigure = [&](const std::string& title, const std::string& unit, auto value) {
+    Figure f(size, title, "step", unit);
+    PlotSeries points{"each hypothesis", kGrey, {}, PlotSeries::Style::kCircles, 1, 3};
+    for (const auto& e : r.errors)
+      points.points.emplace_back(static_cast<double>(e.step), value(e));
+    PlotSeries mean_line{"mean", kRed, {}};
+    std::map<int64_t, std::pair<double, int>> per_step;
+    for (const auto& e : r.errors) {
+      auto& acc = per_step[e.step];
+      acc.first += value(e);
+      ++acc.second;
+    }
+    for (const auto& [step, acc] : per_step) {
+      mean_line.points.emplace_back(static_cast<double>(step), acc.first / acc.second);
+    }
+    f.add(points);
+    f.add(mean_line);
+    return f.render();
+  };
+  const std::vector<std::pair<fs::path, cv::Mat>> plots = {
+      {dir / "hypotheses.png", count.render()},
+      {dir / "error_x.png", errorFigure("Error in x of the hypotheses (Fig. 9)", "x error (m)",
+                                        [](const AppearanceHypothesisError& e) { return e.ex; })},
+      {dir / "error_y.png", errorFigure("Error in y of the hypotheses (Fig. 10)", "y error (m)",
+                                        [](const AppearanceHypothesisError& e) { return e.ey; })},
+      {dir / "error_heading.png",
+       errorFigure("Heading error of the hypotheses (Fig. 11)", "heading error (deg)",
+                   [](const AppearanceHypothesisError& e) { return radToDeg(e.eheading); })}};
+  std::vector<fs::path> written;
+  for (const auto& [path, img] : plots) {
+    bool ok = false;
+    try {
+      ok = cv::imwrite(path.string(), img);
+    } catch (const cv::Exception& e) {
+      throw DataError(path.string() + ": cannot write plot: " + e.what());
+    }
+    if (!ok) throw DataError(path.string() + ": cannot write plot");
+    written.push_back(path);
+  }
+  return written;
+}
+
+void printAppearanceUsage(std::ostream& os) {
+  os << "--appearance LOG: appearance SLAM against ground truth (Lee & Sowmya Figs. 8-11)\n"
+        "  --hypotheses-channel CH  vslam.appearance_hypotheses_t (default APPEARANCE_HYPOTHESES)\n"
+        "  --event-channel CH       vslam.appearance_event_t (default APPEARANCE_EVENT)\n"
+        "  --map-channel CH         vslam.appearance_map_t (default APPEARANCE_MAP)\n"
+        "  --ref-channel CH         vslam.ground_truth_pose_t (default GROUND_TRUTH)\n"
+        "  --action-length M        a re-localization is correct within M metres (default 1)\n"
+        "  --plot-dir DIR           write hypotheses.png, error_x.png, error_y.png,\n"
+        "                           error_heading.png\n"
+        "  --plot-size WxH          plot size in pixels (default 1000x800)\n"
+        "  --json FILE              write the summary as JSON\n";
+}
+
+int runAppearanceEval(const std::vector<std::string>& args, std::ostream& out) {
+  AppearanceEvalOptions options;
+  std::optional<fs::path> log, plot_dir, json;
+  cv::Size plot_size{1000, 800};
+  cli::ArgCursor cur(args);
+  while (!cur.done()) {
+    const std::string opt = cur.next();
+    if (opt == "--hypotheses-channel") {
+      options.hypotheses_channel = cur.value(opt);
+    } else if (opt == "--event-channel") {
+      options.event_channel = cur.value(opt);
+    } else if (opt == "--map-channel") {
+      options.map_channel = cur.value(opt);
+    } else if (opt == "--ref-channel") {
+      options.ref_channel = cur.value(opt);
+    } else if (opt == "--action-length") {
+      options.action_length_m = cli::parsePositive(opt, cur.value(opt));
+    } else if (opt == "--plot-dir") {
+      plot_dir = cur.value(opt);
+    } else if (opt == "--plot-size") {
+      plot_size = cli::parseSize(opt, cur.value(opt));
+      const cv::Size min = Figure::minimumSize();
+      if (plot_size.width < min.width || plot_size.height < min.height) {
+        throw UsageError("--plot-size must be at least " + std::to_string(min.width) + "x" +
+                         std::to_string(min.height));
+      }
+    } else if (opt == "--json") {
+      json = cur.value(opt);
+    } else if (!opt.empty() && opt[0] == '-') {
+      throw UsageError("unknown option '" + opt + "' for --appearance");
+    } else if (log) {
+      throw UsageError("more than one log given ('" + log->string() + "' and '" + opt + "')");
+    } else {
+      log = opt;
+    }
+  }
+  if (!log) throw UsageError("--appearance needs a LOG");
+  const AppearanceReport report = evaluateAppearanceLog(*log, options);
+  printAppearanceReport(out, report);
+  if (json) {
+    writeAppearanceJson(*json, report);
+    log::info("wrote ", json->string());
+  }
+  if (plot_dir) {
+    for (const auto& p : writeAppearancePlots(*plot_dir, report, plot_size)) {
+      log::info("wrote ", p.string());
+    }
+  }
+  return kExitOk;
+}
+
+}  // namespace vslam::eval

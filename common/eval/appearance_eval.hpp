@@ -1,0 +1,95 @@
+#pragma once
+// vslam-eval --appearance: the appearance SLAM process against ground truth,
+// like Lee & Sowmya's Figs. 8-11. From one log that holds the process's
+// APPEARANCE_HYPOTHESES and APPEARANCE_EVENT and the simulator's
+// GROUND_TRUTH (vslam-replay keeps its input):
+//   - the number of path hypotheses at each step (Fig. 8);
+//   - the x, y and heading error of every hypothesis that places the robot
+//     in a previously visited state (the new-state hypothesis is excluded,
+//     as the paper does): the true pose where that state's snapshot was
+//     taken minus the robot's true pose now (Figs. 9-11);
+//   - each re-localisation event, with the true distance between the robot
+//     and the state it re-localised to (correct if below one action length).
+// A state's snapshot time is that of the step whose new-state hypothesis
+// named it (or the map message's, for states of a loaded map).
+
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace vslam::eval {
+
+struct AppearanceEvalOptions {
+  std::string hypotheses_channel = "APPEARANCE_HYPOTHESES";
+  std::string event_channel = "APPEARANCE_EVENT";
+  std::string map_channel = "APPEARANCE_MAP";
+  std::string ref_channel = "GROUND_TRUTH";
+  double action_length_m = 1.0;  // a re-localisation is correct within this distance
+};
+
+struct AppearanceHypothesisError {
+  int64_t step = 0;
+  int64_t state_id = 0;
+  double belief = 0;
+  double ex = 0, ey = 0, eheading = 0;  // metres, metres, radians (state minus robot)
+  double position() const;
+};
+
+struct AppearanceStepRow {
+  int64_t step = 0;
+  double t = 0;  // seconds since the first step
+  int hypotheses = 0;
+  int revisits = 0;  // hypotheses in previously visited states
+  bool best_is_revisit = false;
+  double mean_position_error = 0;  // over revisits; NaN if none
+  double best_position_error = 0;  // of the most believed, if a revisit; else NaN
+};
+
+struct AppearanceRelocalization {
+  int64_t step = 0;
+  double t = 0;
+  int64_t state_id = 0;
+  int64_t previous_state_id = -1;
+  double belief = 0;
+  double position_error = 0;  // NaN when the state's true pose is unknown
+  double heading_error = 0;
+  bool correct = false;
+};
+
+struct AppearanceReport {
+  std::string input;
+  AppearanceEvalOptions options;
+  std::vector<AppearanceStepRow> steps;
+  std::vector<AppearanceHypothesisError> errors;  // every revisit hypothesis of every step
+  std::vector<AppearanceRelocalization> relocalizations;
+  int64_t unknown_states = 0;  // revisit hypotheses whose state has no ground truth
+  int64_t states_created = 0;  // distinct new-state ids seen
+  int max_hypotheses = 0;
+  double mean_hypotheses = 0;
+  // Over every revisit hypothesis of every step.
+  double mean_position_error = 0, median_position_error = 0, max_position_error = 0;
+  double mean_abs_heading_error = 0;  // radians
+  double fraction_within_action = 0;  // position error below action_length_m
+  // Steps whose most believed hypothesis is a revisit, and its error there.
+  int64_t steps_best_revisit = 0;
+  double mean_best_position_error = 0;
+  double mean_step_seconds = 0, max_step_seconds = 0;  // the process's own timing
+};
+
+AppearanceReport evaluateAppearanceLog(const std::filesystem::path& log,
+                                       const AppearanceEvalOptions& options);
+void printAppearanceReport(std::ostream& out, const AppearanceReport& report);
+void writeAppearanceJson(const std::filesystem::path& file, const AppearanceReport& report);
+// hypotheses.png (Fig. 8), error_x.png, error_y.png, error_heading.png (Figs. 9-11).
+std::vector<std::filesystem::path> writeAppearancePlots(const std::filesystem::path& dir,
+                                                        const AppearanceReport& report,
+                                                        cv::Size size);
+
+// The --appearance mode of vslam-eval (arguments after the mode flag).
+int runAppearanceEval(const std::vector<std::string>& args, std::ostream& out);
+void printAppearanceUsage(std::ostream& os);
+
+}  // namespace vslam::eval

@@ -1,0 +1,390 @@
+#include "stages/appearance_stage.hpp"
+
+#include <algorithm>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vslam/appearance_event_t.hpp>
+#include <vslam/appearance_map_t.hpp>
+
+#include "appearance/map_file.hpp"
+#include "util/log.hpp"
+
+namespace vslam::stages {
+
+AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
+                                        const config::RobotConfig& robot) {
+  AppearanceParams p;
+  for (const auto& name : node.getStrings("cameras")) {
+    try {
+      p.cameras.push_back(robot.camera(name));
+    } catch (const std::out_of_range&) {
+      throw node.error("cameras", "no camera '" + name + "' in " + robot.file.string());
+    }
+  }
+  if (p.cameras.empty()) throw node.error("cameras", "needs at least one camera");
+  p.odometry_channel = robot.channels.odometry;
+  p.hypotheses_channel = robot.channels.appearance_hypotheses;
+  p.map_channel = robot.channels.appearance_map;
+  p.event_channel = robot.channels.appearance_event;
+
+  p.action.distance_m = node.getDouble("action_distance_m", config::InRange{0.05, 100});
+  p.action.turn_rad = degToRad(node.getDouble("action_turn_deg", config::InRange{1, 360}));
+  p.action.rest_s = node.getDouble("action_rest_s", 0.3, config::InRange{0.02, 10});
+  p.action.min_fraction = node.getDouble("action_min_fraction", 0.5, config::InRange{0.01, 1});
+  p.snapshot_timeout_s = node.getDouble("snapshot_timeout_s", 1.0, config::InRange{0.05, 60});
+
+  p.histogram.bins = static_cast<int>(node.getInt("histogram_bins", config::InRange{2, 1024}));
+  p.histogram.min_magnitude = node.getDouble("min_gradient", config::nonNegative());
+
+  p.slam.beta = node.getDouble("beta", config::positive());
+  p.slam.new_state_chi2 = node.getDouble("new_state_chi2", config::InRange{1e-6, 2});
+  p.slam.min_chi2 = node.getDouble("min_chi2", 1e-4, config::InRange{1e-9, 1});
+  p.slam.gate = node.getDouble("transition_gate", config::positive());
+  p.slam.place_sigma_m = node.getDouble("place_sigma_m", config::positive());
+  p.slam.place_sigma_rad = degToRad(node.getDouble("place_sigma_deg", config::InRange{0.01, 180}));
+  p.slam.min_belief = node.getDouble("min_belief", config::InRange{0, 1});
+  p.slam.max_hypotheses =
+      static_cast<int>(node.getInt("max_hypotheses", config::InRange{1, 100000}));
+  p.slam.revisit_horizon =
+      static_cast<int>(node.getInt("revisit_horizon", config::InRange{0, 100000}));
+
+  p.action_error.relative_translation = node.getDouble("action_error", config::nonNegative());
+  p.action_error.relative_rotation = p.action_error.relative_translation;
+  p.action_error.odometry_translation =
+      node.getDouble("odometry_sigma_translation", config::nonNegative());
+  p.action_error.odometry_rotation =
+      node.getDouble("odometry_sigma_rotation", config::nonNegative());
+
+  p.map_period_s = node.getDouble("map_period_s", 5.0, config::positive());
+  const std::string file = node.has("map_file") ? node.getString("map_file", true) : "";
+  if (!file.empty()) {
+    p.map_file = node.getPath("map_file", false);
+    p.map_load = node.getBool("map_load");
+    p.map_save = node.getBool("map_save");
+    p.map_save_period_s = node.getDouble("map_save_period_s", 60.0, config::nonNegative());
+  }
+  return p;
+}
+
+AppearanceStage::AppearanceStage(AppearanceParams params)
+    : params_(std::move(params)),
+      slam_(params_.slam, static_cast<int>(params_.cameras.size()), params_.histogram.bins),
+      detector_(params_.action) {
+  slam_.setActionModel(params_.action_error);
+  if (params_.map_load && std::filesystem::exists(params_.map_file)) {
+    // A map that cannot be used is a configuration error: better to stop
+    // than to overwrite it with a fresh one at shutdown.
+    const auto map = appearance::loadMap(params_.map_file);
+    slam_.loadMap(map, cameraNames());
+    loaded_map_ = true;
+    log::info("appearance map ", params_.map_file.string(), ": ", map.states.size(), " states, ",
+              map.path.size(), " visits");
+  } else if (params_.map_load) {
+    log::info("no appearance map at ", params_.map_file.string(), " yet: starting a new one");
+  }
+}
+
+std::vector<std::string> AppearanceStage::cameraNames() const {
+  std::vector<std::string> names;
+  for (const auto& c : params_.cameras) names.push_back(c.name);
+  return names;
+}
+
+void AppearanceStage::start(bus::StageContext& ctx) {
+  ctx_ = &ctx;
+  ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
+                                       [this](const vslam::odometry_t& m) { onOdometry(m); });
+  for (size_t i = 0; i < params_.cameras.size(); ++i) {
+    // Latest wins: only the frame after an action matters.
+    ctx.bus.subscribe<vslam::image_t>(
+        params_.cameras[i].image_channel, [this, i](const vslam::image_t& m) { onImage(i, m); }, 2);
+  }
+}
+
+void AppearanceStage::onOdometry(const vslam::odometry_t& m) {
+  const Pose2 pose{m.x, m.y, m.theta};
+  if (!pose.isFinite()) {
+    ctx_->bus.reportMalformed(params_.odometry_channel,
+                              "odometry seq " + std::to_string(m.seq) + " has a non-finite pose");
+    return;
+  }
+  if (have_odometry_ && m.utime <= odometry_utime_) {
+    ctx_->bus.countDropped();  // duplicate or out of order
+    return;
+  }
+  have_odometry_ = true;
+  odometry_utime_ = m.utime;
+  odometry_ = pose;
+  if (!slam_.initialized() && !pending_) {
+    // The first snapshot z_0 is taken where the robot starts.
+    reference_ = pose;
+    detector_.setReference(m.utime, pose);
+    pending_ = Pending{};
+    pending_->utime = m.utime;
+  } else if (!pending_) {
+    if (const auto action = detector_.add(m.utime, pose)) {
+      pending_ = Pending{};
+      pending_->utime = action->utime;
+    }
+  }
+  if (pending_ && pending_->collected > 0 &&
+      toSeconds(m.utime - pending_->utime) > params_.snapshot_timeout_s) {
+    ++partial_snapshots_;
+    takeSnapshot();
+  }
+}
+
+bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::image_t& msg) {
+  const std::string& channel = camera.image_channel;
+  if (msg.width != camera.width || msg.height != camera.height) {
+    ctx_->bus.reportMalformed(channel, "image " + std::to_string(msg.width) + "x" +
+                                           std::to_string(msg.height) + ", but camera '" +
+                                           camera.name + "' is " + std::to_string(camera.width) +
+                                           "x" + std::to_string(camera.height));
+    return false;
+  }
+  switch (msg.encoding) {
+    case vslam::image_t::ENCODING_GRAY8:
+    case vslam::image_t::ENCODING_BGR8: {
+      const int channels = msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3;
+      if (msg.row_stride < msg.width * channels ||
+          msg.data.size() < static_cast<size_t>(msg.height) * static_cast<size_t>(msg.row_stride)) {
+        ctx_->bus.reportMalformed(channel, "image data shorter than height x row_stride");
+        return false;
+      }
+      const cv::Mat view(msg.height, msg.width, channels == 1 ? CV_8UC1 : CV_8UC3,
+                         const_cast<uint8_t*>(msg.data.data()),
+                         static_cast<size_t>(msg.row_stride));
+      if (channels == 1) {
+        view.copyTo(gray_);
+      } else {
+        cv::cvtColor(view, gray_, cv::COLOR_BGR2GRAY);
+      }
+      return true;
+    }
+    case vslam::image_t::ENCODING_JPEG:
+      gray_ = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
+      if (gray_.empty() || gray_.cols != msg.width || gray_.rows != msg.height) {
+        ctx_->bus.reportMalformed(channel, "JPEG does not decode to the announced size");
+        return false;
+      }
+      return true;
+    default:
+      ctx_->bus.reportMalformed(channel, "unknown encoding " + std::to_string(msg.encoding));
+      return false;
+  }
+}
+
+void AppearanceStage::onImage(size_t camera, const vslam::image_t& msg) {
+  if (!pending_ || msg.utime < pending_->utime) return;
+  if (pending_->histograms.empty()) {
+    pending_->histograms.assign(params_.cameras.size(), appearance::Histogram{});
+    pending_->image_utime.assign(params_.cameras.size(), 0);
+  }
+  if (!pending_->histograms[camera].empty()) return;
+  if (!toGray(params_.cameras[camera], msg)) return;
+  pending_->histograms[camera] = appearance::gradientHistogram(gray_, params_.histogram);
+  pending_->image_utime[camera] = msg.utime;
+  if (++pending_->collected == static_cast<int>(params_.cameras.size())) takeSnapshot();
+}
+
+void AppearanceStage::takeSnapshot() {
+  appearance::Snapshot z;
+  z.histograms = std::move(pending_->histograms);
+  z.histograms.resize(params_.cameras.size());
+  z.utime = 0;
+  for (const Utime t : pending_->image_utime) z.utime = std::max(z.utime, t);
+  z.odometry = odometry_;
+  pending_.reset();
+
+  const Utime t0 = monotonicUtime();
+  appearance::StepResult r;
+  if (!slam_.initialized()) {
+    r = slam_.initialize(z);
+  } else {
+    r = slam_.step(reference_.between(odometry_), z);
+  }
+  const double seconds = toSeconds(monotonicUtime() - t0);
+  reference_ = odometry_;
+  detector_.setReference(odometry_utime_, odometry_);
+  map_dirty_ = true;
+  publishStep(r, z.utime, seconds);
+  if (loaded_map_ && map_published_step_ < 0) publishMap(z.utime);
+}
+
+void AppearanceStage::publishStep(const appearance::StepResult& r, Utime utime, double seconds) {
+  vslam::appearance_hypotheses_t out;
+  out.utime = utime;
+  out.step = r.step;
+  out.best_state_id = r.best().state_id;
+  out.best_belief = r.best().belief;
+  out.step_seconds = seconds;
+  out.num_hypotheses = static_cast<int32_t>(r.hypotheses.size());
+  for (const auto& h : r.hypotheses) {
+    vslam::appearance_hypothesis_t m;
+    m.hypothesis_id = h.hypothesis_id;
+    m.parent_id = h.parent_id;
+    m.state_id = h.state_id;
+    m.is_new_state = h.is_new_state;
+    m.belief = h.belief;
+    m.path_length = h.path_length;
+    out.hypotheses.push_back(m);
+  }
+  ctx_->bus.publish(params_.hypotheses_channel, out);
+
+  // Events: the best hypothesis changes kind, or jumps to another branch.
+  const auto& best = r.best();
+  std::optional<int8_t> event;
+  if (r.lost) {
+    event = vslam::appearance_event_t::EVENT_LOST;
+  } else if (!best.is_new_state && (!last_best_ || last_best_->is_new_state ||
+                                    best.parent_id != last_best_->hypothesis_id)) {
+    event = vslam::appearance_event_t::EVENT_RELOCALIZED;
+    ++relocalizations_;
+  } else if (best.is_new_state && last_best_ && !last_best_->is_new_state) {
+    event = vslam::appearance_event_t::EVENT_NEW_STATE;
+  }
+  if (event) {
+    vslam::appearance_event_t e;
+    e.utime = utime;
+    e.step = r.step;
+    e.event = *event;
+    e.state_id = best.state_id;
+    e.previous_state_id = last_best_ ? last_best_->state_id : -1;
+    e.belief = best.belief;
+    ctx_->bus.publish(params_.event_channel, e);
+    if (*event == vslam::appearance_event_t::EVENT_RELOCALIZED) {
+      log::info("step ", r.step, ": re-localized in state ", best.state_id, " (belief ",
+                best.belief, ", ", r.hypotheses.size(), " hypotheses)");
+    } else if (*event == vslam::appearance_event_t::EVENT_LOST) {
+      log::warn("step ", r.step, ": every hypothesis lost; restarted from a new state");
+    }
+  }
+  last_best_ = best;
+
+  ++steps_;
+  ++steps_total_;
+  const double ms = 1e3 * seconds;
+  step_ms_sum_ += ms;
+  step_ms_max_ = std::max(step_ms_max_, ms);
+}
+
+void AppearanceStage::publishMap(Utime now) {
+  const auto map = slam_.bestMap(cameraNames());
+  vslam::appearance_map_t out;
+  out.utime = now;
+  out.seq = map_seq_++;
+  for (const auto& s : map.states) {
+    vslam::appearance_state_t m;
+    m.state_id = s.id;
+    m.utime = s.utime;
+    m.odom_x = s.odometry.x;
+    m.odom_y = s.odometry.y;
+    m.odom_theta = s.odometry.theta;
+    m.num_cameras = static_cast<int16_t>(map.cameras.size());
+    m.num_bins = static_cast<int16_t>(map.bins);
+    m.cameras = map.cameras;
+    for (const auto& h : s.histograms) {
+      // A camera that gave no image for this snapshot: zeros (sum 0, not 1).
+      m.histograms.push_back(h.empty() ? std::vector<float>(static_cast<size_t>(map.bins), 0.f)
+                                       : h);
+    }
+    out.states.push_back(std::move(m));
+  }
+  // Links: every traversal of the path; a repeated one keeps its last action.
+  std::map<std::pair<int64_t, int64_t>, size_t> seen;
+  for (size_t i = 1; i < map.path.size(); ++i) {
+    const auto& v = map.path[i];
+    if (!v.link.known) continue;
+    vslam::appearance_link_t l;
+    l.from_state = map.path[i - 1].state_id;
+    l.to_state = v.state_id;
+    l.dx = v.link.action.x;
+    l.dy = v.link.action.y;
+    l.dtheta = v.link.action.theta;
+    l.sigma_translation = v.link.model.relative_translation;
+    l.sigma_rotation = v.link.model.relative_rotation;
+    l.sigma_translation_sqrt = v.link.model.odometry_translation;
+    l.sigma_rotation_sqrt = v.link.model.odometry_rotation;
+    const auto key = std::make_pair(l.from_state, l.to_state);
+    const auto it = seen.find(key);
+    if (it != seen.end()) {
+      out.links[it->second] = l;
+    } else {
+      seen[key] = out.links.size();
+      out.links.push_back(l);
+    }
+  }
+  out.num_states = static_cast<int32_t>(out.states.size());
+  out.num_links = static_cast<int32_t>(out.links.size());
+  ctx_->bus.publish(params_.map_channel, out);
+  map_published_step_ = slam_.stepCount();
+  last_map_publish_ = now;
+}
+
+void AppearanceStage::onTimer(Utime now) {
+  if (!slam_.initialized()) return;
+  if (map_dirty_ && toSeconds(now - last_map_publish_) >= params_.map_period_s) {
+    publishMap(now);
+    map_dirty_ = false;
+  }
+  if (params_.map_save && params_.map_save_period_s > 0 &&
+      toSeconds(now - last_map_save_) >= params_.map_save_period_s) {
+    if (last_map_save_ != 0) saveMap();
+    last_map_save_ = now;
+  }
+}
+
+void AppearanceStage::saveMap() {
+  if (!params_.map_save || params_.map_file.empty() || !slam_.initialized()) return;
+  try {
+    const auto map = slam_.bestMap(cameraNames());
+    appearance::saveMap(params_.map_file, map);
+    log::info("saved appearance map (", map.states.size(), " states) to ",
+              params_.map_file.string());
+  } catch (const std::exception& e) {
+    log::error("cannot save the appearance map: ", e.what());
+  }
+}
+
+void AppearanceStage::stop() {
+  if (map_dirty_ && ctx_ && slam_.initialized()) publishMap(odometry_utime_);
+  saveMap();
+}
+
+void AppearanceStage::collectHealth(bus::HealthReport& report) {
+  report.add("steps", static_cast<double>(steps_), "count");
+  report.add("hypotheses", slam_.initialized() ? static_cast<double>(slam_.hypotheses().size()) : 0,
+             "count");
+  report.add("states", slam_.initialized() ? static_cast<double>(slam_.best().node->num_states) : 0,
+             "count");
+  report.add("best_belief", slam_.initialized() ? slam_.best().belief : 0, "");
+  report.add("step_ms", steps_ > 0 ? step_ms_sum_ / static_cast<double>(steps_) : 0, "ms");
+  report.add("step_ms_max", step_ms_max_, "ms");
+  report.add("relocalizations", static_cast<double>(relocalizations_), "count");
+  report.add("partial_snapshots", static_cast<double>(partial_snapshots_), "count");
+  if (!have_odometry_) report.warn("no odometry: no actions, no snapshots");
+  if (pending_ && have_odometry_ &&
+      toSeconds(odometry_utime_ - pending_->utime) > params_.snapshot_timeout_s) {
+    report.warn("snapshot due but no camera image arrived");
+  }
+  steps_ = 0;
+  step_ms_sum_ = 0;
+  step_ms_max_ = 0;
+}
+
+void registerAppearance(bus::StageRegistry& registry) {
+  registry.add("appearance", [](const bus::StageSetup& setup) {
+    AppearanceParams params = AppearanceParams::load(setup.params, setup.stack.robot);
+    try {
+      return std::make_unique<AppearanceStage>(std::move(params));
+    } catch (const appearance::MapFileError& e) {
+      throw setup.params.error("map_file", e.what());
+    } catch (const std::invalid_argument& e) {
+      throw setup.params.error("map_file", e.what());
+    }
+  });
+}
+
+}  // namespace vslam::stages

@@ -1,0 +1,256 @@
+// The path-hypothesis tree (Lee & Sowmya section V) on a small synthetic
+// world: a 2 x 2 m square driven with 1 m moves and 90 degree left turns, 12
+// actions a lap, 12 places. Each place shows a histogram of its own, except
+// that places 0 and 1 look alike (perceptual aliasing). The snapshots are
+// the stored histograms exactly, so chi2 = 0 for the right place.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "appearance/map_file.hpp"
+#include "appearance/path_hypotheses.hpp"
+#include "support/test_logs.hpp"
+
+using namespace vslam;
+using namespace vslam::appearance;
+
+namespace {
+
+constexpr int kBins = 16;
+constexpr int kPlaces = 12;
+const char* const kLap = "FFLFFLFFLFFL";
+
+// A distinct histogram per place; places 0 and 1 share one.
+Histogram placeHistogram(int place) {
+  const int look = place == 1 ? 0 : place;
+  Histogram h(kBins, 0.f);
+  h[static_cast<size_t>(look)] = 0.6f;
+  h[static_cast<size_t>((look + 5) % kBins)] = 0.4f;
+  return h;
+}
+
+Snapshot snapshotAt(int place) {
+  Snapshot z;
+  z.histograms = {placeHistogram(place)};
+  return z;
+}
+
+Pose2 actionOf(char c) { return c == 'F' ? Pose2{1, 0, 0} : Pose2{0, 0, M_PI / 2}; }
+
+SlamParams params() {
+  SlamParams p;
+  p.beta = 1.0;
+  p.new_state_chi2 = 0.05;
+  p.min_chi2 = 1e-4;
+  p.gate = 11.34;
+  p.place_sigma_m = 0.2;
+  p.place_sigma_rad = 0.17;
+  p.min_belief = 1e-3;
+  p.max_hypotheses = 20;
+  return p;
+}
+
+ActionErrorModel model() {
+  ActionErrorModel m;
+  m.relative_translation = m.relative_rotation = 0.05;
+  m.odometry_translation = m.odometry_rotation = 0.05;
+  return m;
+}
+
+std::set<int64_t> revisitedStates(const StepResult& r) {
+  std::set<int64_t> s;
+  for (const auto& h : r.hypotheses)
+    if (!h.is_new_state) s.insert(h.state_id);
+  return s;
+}
+
+double beliefSum(const StepResult& r) {
+  double s = 0;
+  for (const auto& h : r.hypotheses) s += h.belief;
+  return s;
+}
+
+// Drives one lap from place 0; returns the last result.
+StepResult driveLap(AppearanceSlam& slam) {
+  StepResult r;
+  for (int i = 0; i < kPlaces; ++i) r = slam.step(actionOf(kLap[i]), snapshotAt((i + 1) % kPlaces));
+  return r;
+}
+
+}  // namespace
+
+TEST(PathHypotheses, SplitsOnAliasingAndCollapsesOnADistinctiveView) {
+  AppearanceSlam slam(params(), 1, kBins);
+  slam.setActionModel(model());
+  StepResult r = slam.initialize(snapshotAt(0));
+  ASSERT_EQ(r.hypotheses.size(), 1u);
+  EXPECT_TRUE(r.best().is_new_state);
+  // First lap: nothing visited is reachable, one new-state hypothesis a step
+  // (place 1 looks like place 0, but 1 m from it with 5 % error it is not
+  // the same place).
+  for (int i = 0; i < kPlaces - 1; ++i) {
+    r = slam.step(actionOf(kLap[i]), snapshotAt(i + 1));
+    ASSERT_EQ(r.hypotheses.size(), 1u) << "step " << r.step;
+    EXPECT_TRUE(r.best().is_new_state);
+    EXPECT_EQ(r.best().state_id, i + 1);
+  }
+  // Back at place 0 after the lap: traced through 12 actions, places 0 and 1
+  // are both within reach, and both look like the snapshot: the tree splits.
+  r = slam.step(actionOf(kLap[kPlaces - 1]), snapshotAt(0));
+  const auto split = revisitedStates(r);
+  EXPECT_TRUE(split.count(0) && split.count(1)) << "revisits: " << split.size();
+  EXPECT_GE(r.hypotheses.size(), 3u);
+  EXPECT_EQ(r.best().state_id, 0) << "the traced pose is closer to place 0";
+  EXPECT_FALSE(r.best().is_new_state);
+  EXPECT_NEAR(beliefSum(r), 1.0, 1e-9);
+
+  // One move on: place 1 (still looks like 0), then place 2, distinctive.
+  r = slam.step(actionOf('F'), snapshotAt(1));
+  r = slam.step(actionOf('F'), snapshotAt(2));
+  EXPECT_EQ(r.best().state_id, 2);
+  EXPECT_FALSE(r.best().is_new_state);
+  EXPECT_GT(r.best().belief, 0.95);
+  for (const auto& h : r.hypotheses) {
+    if (!h.is_new_state) {
+      EXPECT_EQ(h.state_id, 2) << "a hypothesis off the true path survived";
+    }
+  }
+  // The map of the best hypothesis has the 12 places, no more.
+  EXPECT_EQ(slam.best().node->num_states, kPlaces);
+  EXPECT_EQ(slam.bestMap({"cam"}).states.size(), static_cast<size_t>(kPlaces));
+}
+
+// Equation 6 by hand: one hypothesis at state 0, a small action u = 0.1 m;
+// the children are "new" (weight new_state_chi2^-beta) and "back in state
+// 0": exp(-m^2/2) chi2^-beta with m^2 = r^T (S_u + S_place)^-1 r.
+TEST(PathHypotheses, BeliefsFollowTransitionAndObservationProbabilities) {
+  SlamParams p = params();
+  p.beta = 2.0;
+  AppearanceSlam slam(p, 1, kBins);
+  slam.setActionModel(model());
+  slam.initialize(snapshotAt(0));
+  Snapshot z;
+  z.histograms = {Histogram(kBins, 0.f)};
+  z.histograms[0][0] = 0.5f;  // half of place 0's first bin moved to bin 1
+  z.histograms[0][1] = 0.1f;
+  z.histograms[0][5] = 0.4f;
+  const double chi2 = chiSquare(z.histograms[0], placeHistogram(0));
+  const Pose2 u{0.1, 0, 0};
+  const StepResult r = slam.step(u, z);
+  ASSERT_EQ(r.hypotheses.size(), 2u);
+  const double var_t = std::pow(0.05 * 0.1, 2) + 0.05 * 0.05 * 0.1 + 0.2 * 0.2;
+  const double m2 = 0.1 * 0.1 / var_t;  // only x is off
+  const double w_revisit = std::exp(-0.5 * m2) / std::pow(chi2, p.beta);
+  const double w_new = 1.0 / std::pow(p.new_state_chi2, p.beta);
+  double revisit = 0, fresh = 0;
+  for (const auto& h : r.hypotheses) (h.is_new_state ? fresh : revisit) = h.belief;
+  EXPECT_NEAR(revisit, w_revisit / (w_revisit + w_new), 1e-9);
+  EXPECT_NEAR(fresh, w_new / (w_revisit + w_new), 1e-9);
+}
+
+TEST(PathHypotheses, PruningThresholdAndBound) {
+  // Every place looks the same and the action error is large: each lap
+  // step splits into many children.
+  SlamParams p = params();
+  p.max_hypotheses = 5;
+  p.min_belief = 0.01;
+  AppearanceSlam slam(p, 1, kBins);
+  ActionErrorModel m = model();
+  m.odometry_translation = m.odometry_rotation = 0.3;
+  slam.setActionModel(m);
+  slam.initialize(snapshotAt(0));
+  int bounded = 0, thresholded = 0;
+  for (int lap = 0; lap < 2; ++lap) {
+    for (int i = 0; i < kPlaces; ++i) {
+      const StepResult r = slam.step(actionOf(kLap[i]), snapshotAt(0));
+      ASSERT_LE(r.hypotheses.size(), 5u);
+      ASSERT_EQ(slam.hypotheses().size(), r.hypotheses.size());
+      EXPECT_NEAR(beliefSum(r), 1.0, 1e-9);
+      for (size_t k = 1; k < r.hypotheses.size(); ++k) {
+        EXPECT_LE(r.hypotheses[k].belief, r.hypotheses[k - 1].belief) << "most believed first";
+      }
+      // Survivors were above the threshold before renormalisation, so above it after.
+      for (const auto& h : r.hypotheses) EXPECT_GE(h.belief, p.min_belief);
+      EXPECT_EQ(r.children,
+                static_cast<int>(r.hypotheses.size()) + r.pruned_bound + r.pruned_threshold);
+      bounded += r.pruned_bound;
+      thresholded += r.pruned_threshold;
+    }
+  }
+  EXPECT_GT(bounded, 0) << "the bound never applied: the test does not test it";
+  EXPECT_GT(thresholded, 0);
+}
+
+TEST(PathHypotheses, NonFiniteInputIsRejected) {
+  AppearanceSlam slam(params(), 1, kBins);
+  EXPECT_THROW(slam.step({0, 0, 0}, snapshotAt(0)), std::logic_error);
+  slam.initialize(snapshotAt(0));
+  EXPECT_THROW(slam.step({NAN, 0, 0}, snapshotAt(1)), std::invalid_argument);
+  Snapshot two;
+  two.histograms = {placeHistogram(0), placeHistogram(1)};
+  EXPECT_THROW(slam.step({1, 0, 0}, two), std::invalid_argument);
+  Snapshot short_bins;
+  short_bins.histograms = {Histogram(3, 0.f)};
+  EXPECT_THROW(slam.step({1, 0, 0}, short_bins), std::invalid_argument);
+}
+
+TEST(MapFile, RoundTripAndRelocalisationInTheLoadedMap) {
+  const auto dir = vslam::test::scratchDir("appearance_map");
+  const auto file = dir / "loop.map";
+  SavedMap saved;
+  {
+    AppearanceSlam slam(params(), 1, kBins);
+    slam.setActionModel(model());
+    slam.initialize(snapshotAt(0));
+    driveLap(slam);
+    saved = slam.bestMap({"forward"});
+    saveMap(file, saved);
+  }
+  const SavedMap loaded = loadMap(file);
+  EXPECT_EQ(loaded.cameras, saved.cameras);
+  EXPECT_EQ(loaded.bins, kBins);
+  ASSERT_EQ(loaded.states.size(), saved.states.size());
+  for (size_t i = 0; i < saved.states.size(); ++i) {
+    EXPECT_EQ(loaded.states[i].id, saved.states[i].id);
+    EXPECT_EQ(loaded.states[i].utime, saved.states[i].utime);
+    EXPECT_EQ(loaded.states[i].histograms, saved.states[i].histograms);
+  }
+  ASSERT_EQ(loaded.path.size(), saved.path.size());
+  for (size_t i = 0; i < saved.path.size(); ++i) {
+    EXPECT_EQ(loaded.path[i].state_id, saved.path[i].state_id);
+    EXPECT_EQ(loaded.path[i].link.known, saved.path[i].link.known);
+    EXPECT_EQ(loaded.path[i].link.action.x, saved.path[i].link.action.x);
+    EXPECT_EQ(loaded.path[i].link.action.theta, saved.path[i].link.action.theta);
+    EXPECT_EQ(loaded.path[i].link.covariance, saved.path[i].link.covariance);
+    EXPECT_EQ(loaded.path[i].link.model.odometry_rotation,
+              saved.path[i].link.model.odometry_rotation);
+  }
+
+  // A second run in the loaded map, put down at place 5 (distinctive): it
+  // re-localises there at once, then follows the map's links (turn left to
+  // place 6) by tracing through the loaded path.
+  AppearanceSlam second(params(), 1, kBins);
+  second.setActionModel(model());
+  second.loadMap(loaded, {"forward"});
+  StepResult r = second.initialize(snapshotAt(5));
+  EXPECT_FALSE(r.best().is_new_state);
+  EXPECT_EQ(r.best().state_id, 5);
+  r = second.step(actionOf('L'), snapshotAt(6));
+  EXPECT_EQ(r.best().state_id, 6);
+  EXPECT_FALSE(r.best().is_new_state);
+  EXPECT_GT(r.best().belief, 0.9);
+  // New states get ids after the map's.
+  EXPECT_EQ(r.new_state_id, kPlaces + 1);
+  EXPECT_THROW(second.loadMap(loaded, {"forward"}), std::logic_error);
+
+  AppearanceSlam other_cameras(params(), 2, kBins);
+  EXPECT_THROW(other_cameras.loadMap(loaded, {"forward", "backward"}), std::invalid_argument);
+  { std::ofstream(dir / "junk.map") << "not a database"; }
+  EXPECT_THROW(loadMap(dir / "junk.map"), MapFileError);
+  EXPECT_THROW(loadMap(dir / "missing.map"), MapFileError);
+  std::filesystem::remove_all(dir);
+}
