@@ -199,24 +199,6 @@ const char* toString(MeasurementFailure f) {
   return "unknown";
 }
 
-const char* toString(MeasurementStatus s) {
-  switch (s) {
-    case MeasurementStatus::kUnfiltered:
-      return "unfiltered";
-    case MeasurementStatus::kAccepted:
-      return "accepted";
-    case MeasurementStatus::kRejectedProjErr:
-      return "rejected: ProjErrRMS";
-    case MeasurementStatus::kRejectedNumPoints:
-      return "rejected: NPoints";
-    case MeasurementStatus::kRejectedSlope:
-      return "rejected: Slope";
-    case MeasurementStatus::kRejectedInvalid:
-      return "rejected: invalid";
-  }
-  return "unknown";
-}
-
 Pose2 planarPose(const Eigen::Isometry3d& a_T_b) {
   const Eigen::Matrix3d& R = a_T_b.linear();
   return {a_T_b.translation().x(), a_T_b.translation().y(),
@@ -396,14 +378,7 @@ PoseMeasurementResult measurePose(const std::vector<Eigen::Vector3d>& points_cre
 }
 
 MeasurementStatus prefilter(const PoseMeasurement& m, const PrefilterParams& params) {
-  // Slope may be +inf (tilted 90 degrees or more): a slope rejection, not invalid.
-  if (!m.relative.isFinite() || !std::isfinite(m.proj_err_rms_px) || std::isnan(m.slope) ||
-      m.num_points < 0 || m.proj_err_rms_px < 0 || m.slope < 0)
-    return MeasurementStatus::kRejectedInvalid;
-  if (m.proj_err_rms_px > params.max_proj_err_rms_px) return MeasurementStatus::kRejectedProjErr;
-  if (m.num_points < params.min_num_points) return MeasurementStatus::kRejectedNumPoints;
-  if (m.slope > params.max_slope) return MeasurementStatus::kRejectedSlope;
-  return MeasurementStatus::kAccepted;
+  return backend::prefilter({m.relative, m.proj_err_rms_px, m.num_points, m.slope}, params);
 }
 
 }  // namespace vslam::frontend

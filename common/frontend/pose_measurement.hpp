@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "backend/prefilter.hpp"
 #include "config/robot_config.hpp"
 #include "odometry/pose2.hpp"
 
@@ -126,22 +127,10 @@ struct OutOfPlane {
 OutOfPlane outOfPlane(const Eigen::Isometry3d& a_T_b);
 
 // ---------------------------------------------------------------------------
-// Pre-filter (paper section 5). Values match vslam.visual_measurement_t.
-enum class MeasurementStatus : int {
-  kUnfiltered = 0,
-  kAccepted = 1,
-  kRejectedProjErr = 2,
-  kRejectedNumPoints = 3,
-  kRejectedSlope = 4,
-  kRejectedInvalid = 5,
-};
-const char* toString(MeasurementStatus s);
-
-struct PrefilterParams {
-  double max_proj_err_rms_px = 3.0;  // reject if ProjErrRMS > this
-  int min_num_points = 10;           // reject if NPoints < this
-  double max_slope = 0.1;            // reject if Slope > this
-};
+// Pre-filter (paper section 5): shared with the back-end, in backend/prefilter.hpp.
+using backend::MeasurementStatus;
+using backend::PrefilterParams;
+using backend::toString;
 
 // The first failed test in the paper's order (ProjErrRMS, NPoints, Slope);
 // non-finite pose or statistics, or a negative count, are kRejectedInvalid.

@@ -1,6 +1,7 @@
 #include "stages/builtin_stages.hpp"
 
 #include "stages/appearance_stage.hpp"
+#include "stages/backend_stage.hpp"
 #include "stages/deadreckon_stage.hpp"
 #include "stages/frontend_stage.hpp"
 
@@ -11,6 +12,7 @@ const bus::StageRegistry& builtinStages() {
     bus::StageRegistry r;
     registerDeadReckon(r);
     registerFrontend(r);
+    registerBackend(r);
     registerAppearance(r);
     return r;
   }();

@@ -1,0 +1,398 @@
+#include "backend/particle_filter.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "backend/measurement_model.hpp"
+#include "backend/rng.hpp"
+
+namespace vslam::backend {
+
+namespace {
+
+// What each random stream is for (part of its seed).
+enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4 };
+
+// E[exp(-d^2/2)] for d^2 ~ chi^2 with 3 degrees of freedom: (1 + 1)^(-3/2).
+constexpr double kConsistentAgreement = 0.35355339059327373;
+
+double logSumExp(const double* v, size_t n) {
+  double m = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < n; ++i) m = std::max(m, v[i]);
+  if (!std::isfinite(m)) return m;
+  double s = 0;
+  for (size_t i = 0; i < n; ++i) s += std::exp(v[i] - m);
+  return m + std::log(s);
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("backend filter: " + what);
+}
+
+}  // namespace
+
+const char* toString(UpdateKind k) {
+  switch (k) {
+    case UpdateKind::kInitialized:
+      return "initialized";
+    case UpdateKind::kMixture:
+      return "mixture";
+    case UpdateKind::kKidnapped:
+      return "kidnapped";
+  }
+  return "?";
+}
+
+void FilterParams::validate() const {
+  require(num_particles >= 1, "num_particles must be >= 1");
+  require(motion.sigma_translation >= 0 && motion.sigma_rotation >= 0,
+          "motion sigmas must be >= 0");
+  require(measurement_sigma_xy_m > 0 && measurement_sigma_theta_rad > 0,
+          "measurement sigmas must be > 0");
+  require(resample_ess_fraction >= 0 && resample_ess_fraction <= 1,
+          "resample_ess_fraction must be in [0, 1]");
+  require(mixture.dual_ratio_min >= 0 && mixture.dual_ratio_min <= mixture.dual_ratio_max &&
+              mixture.dual_ratio_max <= 1,
+          "need 0 <= dual_ratio_min <= dual_ratio_max <= 1");
+  require(mixture.agreement_smoothing > 0 && mixture.agreement_smoothing <= 1,
+          "agreement_smoothing must be in (0, 1]");
+  require(mixture.motion_min_sigma_xy_m > 0 && mixture.motion_min_sigma_theta_rad > 0,
+          "motion_min_sigma_xy_m and motion_min_sigma_theta_rad must be > 0");
+  require(kidnap.detect_agreement >= 0 && kidnap.detect_agreement <= 1 &&
+              kidnap.recover_agreement >= 0 && kidnap.recover_agreement <= 1,
+          "kidnap agreements must be in [0, 1]");
+  require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1, "kidnap counts must be >= 1");
+  require(num_threads >= 0, "num_threads must be >= 0");
+  require(grain_size >= 1, "grain_size must be >= 1");
+  require(initial_pose.isFinite(), "initial_pose must be finite");
+}
+
+Eigen::Matrix3d FilterParams::measurementCovariance() const {
+  return Eigen::Vector3d(measurement_sigma_xy_m * measurement_sigma_xy_m,
+                         measurement_sigma_xy_m * measurement_sigma_xy_m,
+                         measurement_sigma_theta_rad * measurement_sigma_theta_rad)
+      .asDiagonal();
+}
+
+ParticleFilter::ParticleFilter(FilterParams params) : params_(std::move(params)) {
+  params_.validate();
+  // (A copy of `automatic`: the constant is declared but not defined in oneTBB 2021.)
+  const int automatic = tbb::task_arena::automatic;
+  arena_ =
+      std::make_unique<tbb::task_arena>(params_.num_threads > 0 ? params_.num_threads : automatic);
+  particles_.resize(static_cast<size_t>(params_.num_particles));
+  for (Particle& p : particles_) p.pose = p.anchor = params_.initial_pose;
+}
+
+ParticleFilter::~ParticleFilter() = default;
+
+template <class F>
+void ParticleFilter::forEachParticle(F&& f) {
+  const size_t m = particles_.size();
+  const size_t grain = static_cast<size_t>(params_.grain_size);
+  if (m <= grain || params_.num_threads == 1) {
+    for (size_t i = 0; i < m; ++i) f(i);
+    return;
+  }
+  arena_->execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m, grain),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+                      });
+  });
+}
+
+int64_t ParticleFilter::slotOf(int64_t landmark_id) const {
+  const auto it = slots_.find(landmark_id);
+  return it == slots_.end() ? -1 : static_cast<int64_t>(it->second);
+}
+
+void ParticleFilter::predict(const Pose2& step) {
+  if (step.x == 0 && step.y == 0 && step.theta == 0) return;  // standing still: no noise either
+  const uint64_t k = step_++;
+  const uint64_t seed = params_.seed;
+  const MotionNoise noise = params_.motion;
+  since_update_.apply(step, noise.stepCovariance(step));
+  forEachParticle([&](size_t i) {
+    RandomStream rng(seed, k, i, kMotion);
+    const double nt = rng.normal();
+    const double nr = rng.normal();
+    particles_[i].pose = particles_[i].pose.compose(noise.perturb(step, nt, nr));
+  });
+}
+
+UpdateReport ParticleFilter::initialize(uint32_t slot, const Observation& obs,
+                                        const Eigen::Matrix3d& r) {
+  ++step_;
+  forEachParticle([&](size_t i) {
+    Particle& p = particles_[i];
+    p.map.mutableSlot(slot) = initializeLandmark(p.pose, obs.relative, r);
+    p.anchor = p.pose;
+  });
+  since_update_ = PoseWithCovariance();
+  UpdateReport rep;
+  rep.kind = UpdateKind::kInitialized;
+  rep.agreement = 1;
+  rep.smoothed_agreement = smoothed_agreement_;
+  rep.ess = effectiveSampleSize();
+  return rep;
+}
+
+UpdateReport ParticleFilter::update(const Observation& obs) {
+  if (!obs.relative.isFinite() || !obs.covariance.allFinite())
+    throw std::invalid_argument("backend filter: non-finite observation");
+  const Eigen::Matrix3d r =
+      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  const auto found = slots_.find(obs.landmark_id);
+  if (found == slots_.end()) {
+    const auto slot = static_cast<uint32_t>(ids_.size());
+    slots_.emplace(obs.landmark_id, slot);
+    ids_.push_back(obs.landmark_id);
+    return initialize(slot, obs, r);
+  }
+  const uint32_t slot = found->second;
+  const uint64_t k = step_++;
+  const uint64_t seed = params_.seed;
+  const size_t m = particles_.size();
+  const Pose2 y = obs.relative;
+
+  // Prior weights, normalised, in the log domain (they may underflow as
+  // plain numbers when the particles disagree with the measurements).
+  std::vector<double> log_w(m);
+  for (size_t i = 0; i < m; ++i) log_w[i] = particles_[i].log_weight;
+  const double lse = logSumExp(log_w.data(), m);
+  for (double& v : log_w) v -= lse;
+
+  // (1) How well does each particle, as it is, explain the measurement?
+  std::vector<double> d2(m);
+  forEachParticle([&](size_t i) {
+    const LandmarkEstimate* lm = particles_[i].map.find(slot);
+    d2[i] = innovation(*lm, particles_[i].pose, y, r).mahalanobis_sq;
+  });
+  double agreement = 0;
+  for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - 0.5 * d2[i]);
+  agreement = std::min(1.0, agreement / kConsistentAgreement);
+
+  // (2) Mode: kidnap detection and recovery, the dynamic ratio.
+  UpdateReport rep;
+  rep.agreement = agreement;
+  const KidnapParams& kp = params_.kidnap;
+  const MixtureParams& mix = params_.mixture;
+  bool all_dual = false;
+  if (kidnapped_) {
+    recover_count_ = agreement >= kp.recover_agreement ? recover_count_ + 1 : 0;
+    if (recover_count_ >= kp.recover_count) {
+      kidnapped_ = false;
+      rep.recovered = true;
+      smoothed_agreement_ = agreement;
+    } else {
+      all_dual = true;
+    }
+  } else {
+    low_count_ = agreement < kp.detect_agreement ? low_count_ + 1 : 0;
+    if (low_count_ >= kp.detect_count) {
+      kidnapped_ = true;
+      rep.kidnap_detected = true;
+      low_count_ = 0;
+      recover_count_ = 0;
+      all_dual = true;
+    }
+  }
+  if (!all_dual) {
+    smoothed_agreement_ += mix.agreement_smoothing * (agreement - smoothed_agreement_);
+  }
+  const double ratio = all_dual ? 1.0
+                                : mix.dual_ratio_min + (mix.dual_ratio_max - mix.dual_ratio_min) *
+                                                           (1.0 - smoothed_agreement_);
+  const auto n_dual = static_cast<uint64_t>(
+      std::min<double>(static_cast<double>(m), std::round(ratio * static_cast<double>(m))));
+  // Which particles are dual: n_dual of them, evenly spread over the
+  // (ancestor-ordered) set from a random offset.
+  RandomStream select_rng(seed, k, 0, kSelect);
+  const uint64_t offset = select_rng.next() % m;
+  auto isDual = [&](size_t i) { return (i * n_dual + offset) % m < n_dual; };
+
+  // Importance factors (docs/backend.md, "Mixture proposal"). Slot i holds
+  // the history of particle i (prior weight w_i) and a pose s drawn from the
+  // mixture g_i(s) = (1 - rho) p(s | a_i, u) + rho p(y | s, m_i): the motion
+  // model from the particle's own previous pose a_i (its anchor: its pose at
+  // the previous update) and the odometry u since, or the measurement model
+  // given its own map m_i (a density in s that integrates to 1, since
+  // |det dh/ds| = 1). The target is w_i p(s | a_i, u) p(y | s, m_i), so
+  //   W_i = w_i p(s | a_i, u) p(y | s, m_i) / g_i(s)
+  // for nominal and dual particles alike: consistent by construction, and
+  // bounded by min(p(y|s) / (1 - rho), p(s|a,u) / rho), so neither kind can
+  // swamp the other (the balance heuristic of multiple importance sampling;
+  // with rho = 0 it is FastSLAM's w_i p(y | s, m_i)). p(s | a_i, u) is the
+  // Gaussian of the odometry's accumulated covariance since the previous
+  // update (the anchor's frame, the same for every particle), floored.
+  const double rho = static_cast<double>(n_dual) / static_cast<double>(m);
+  const double log_rho = std::log(rho), log_1_rho = std::log1p(-rho);
+  const Pose2 u = since_update_.pose();
+  Eigen::Matrix3d motion_cov = since_update_.covariance();
+  motion_cov(0, 0) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
+  motion_cov(1, 1) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
+  motion_cov(2, 2) += mix.motion_min_sigma_theta_rad * mix.motion_min_sigma_theta_rad;
+  const Eigen::Matrix3d motion_inv = motion_cov.inverse();
+  const double motion_log_norm =
+      -0.5 * (std::log(motion_cov.determinant()) + 3 * 1.8378770664093453);
+  auto logMotion = [&](const Particle& p) {
+    const Pose2 moved = p.anchor.between(p.pose);
+    const Eigen::Vector3d d(moved.x - u.x, moved.y - u.y, wrapAngle(moved.theta - u.theta));
+    return motion_log_norm - 0.5 * d.dot(motion_inv * d);
+  };
+  Eigen::Matrix3d chol_r = Eigen::Matrix3d::Zero();
+  if (n_dual > 0) chol_r = r.llt().matrixL();
+
+  // (3) Sample, weight, and update each particle's Kalman filter of the landmark.
+  forEachParticle([&](size_t i) {
+    Particle& p = particles_[i];
+    LandmarkEstimate& lm = p.map.mutableSlot(slot);
+    if (isDual(i)) {
+      RandomStream rng(seed, k, i, kDual);
+      p.pose = sampleFromMeasurement(lm, y, chol_r, rng);
+      p.dual = true;
+    } else {
+      p.dual = false;
+    }
+    const Innovation in = innovation(lm, p.pose, y, r);
+    if (all_dual) {
+      p.log_weight = 0;  // kidnapped: uniform importance factors (paper 6.2)
+    } else if (n_dual == 0) {
+      p.log_weight = log_w[i] + in.log_likelihood;
+    } else {
+      const double lp_motion = logMotion(p);
+      const double lp_y = in.log_likelihood;
+      const double a = log_1_rho + lp_motion, b = log_rho + lp_y;
+      const double log_g = std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
+      p.log_weight = log_w[i] + lp_motion + lp_y - log_g;
+    }
+    kalmanUpdate(lm, in, r);
+    p.anchor = p.pose;
+  });
+  since_update_ = PoseWithCovariance();
+
+  normalize();
+  rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
+  rep.num_dual = static_cast<int>(n_dual);
+  rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
+  rep.smoothed_agreement = smoothed_agreement_;
+  rep.ess = effectiveSampleSize();
+  last_dual_ratio_ = rep.dual_ratio;
+  if (rep.ess < params_.resample_ess_fraction * static_cast<double>(m)) {
+    resample();
+    rep.resampled = true;
+  }
+  return rep;
+}
+
+void ParticleFilter::normalize() {
+  double mx = -std::numeric_limits<double>::infinity();
+  for (const Particle& p : particles_) mx = std::max(mx, p.log_weight);
+  if (!std::isfinite(mx)) {
+    // Every weight is zero (or NaN): nothing to infer from; start uniform.
+    for (Particle& p : particles_) p.log_weight = 0;
+    return;
+  }
+  for (Particle& p : particles_) {
+    p.log_weight =
+        std::isnan(p.log_weight) ? -std::numeric_limits<double>::infinity() : p.log_weight - mx;
+  }
+}
+
+std::vector<double> ParticleFilter::normalizedWeights() const {
+  std::vector<double> w(particles_.size());
+  double sum = 0;
+  for (size_t i = 0; i < w.size(); ++i) sum += w[i] = std::exp(particles_[i].log_weight);
+  for (double& v : w) v /= sum;
+  return w;
+}
+
+double ParticleFilter::effectiveSampleSize() const {
+  const std::vector<double> w = normalizedWeights();
+  double s2 = 0;
+  for (double v : w) s2 += v * v;
+  return 1.0 / s2;
+}
+
+size_t ParticleFilter::bestParticle() const {
+  size_t best = 0;
+  for (size_t i = 1; i < particles_.size(); ++i) {
+    if (particles_[i].log_weight > particles_[best].log_weight) best = i;
+  }
+  return best;
+}
+
+void ParticleFilter::resample() {
+  const size_t m = particles_.size();
+  const std::vector<double> w = normalizedWeights();
+  RandomStream rng(params_.seed, step_++, 0, kResample);
+  const double step = 1.0 / static_cast<double>(m);
+  double u = rng.uniform() * step, c = w[0];
+  size_t j = 0;
+  scratch_.resize(m);
+  for (size_t n = 0; n < m; ++n, u += step) {
+    while (u > c && j + 1 < m) c += w[++j];
+    Particle& out = scratch_[n];
+    out.pose = particles_[j].pose;
+    out.anchor = particles_[j].anchor;
+    out.map = particles_[j].map;  // one reference count, whatever the map's size
+    out.dual = particles_[j].dual;
+    out.log_weight = 0;
+  }
+  particles_.swap(scratch_);
+  // Drop the old set's references now, so the survivors' paths are unique
+  // again wherever only one descendant remains.
+  for (Particle& p : scratch_) p.map = LandmarkMap();
+}
+
+void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
+  slots_.clear();
+  ids_.clear();
+  LandmarkMap map;
+  for (const KnownLandmark& l : landmarks) {
+    if (l.estimate.num_observations < 1 || !l.estimate.mean.allFinite() ||
+        !l.estimate.covariance.allFinite() || slots_.count(l.id))
+      throw std::invalid_argument(
+          "backend filter: loadMap needs distinct, observed, finite landmarks");
+    const auto slot = static_cast<uint32_t>(ids_.size());
+    slots_.emplace(l.id, slot);
+    ids_.push_back(l.id);
+    map.mutableSlot(slot) = l.estimate;
+  }
+  for (Particle& p : particles_) p.map = map;
+}
+
+PoseEstimate ParticleFilter::estimate() const {
+  const std::vector<double> w = normalizedWeights();
+  double sx = 0, sy = 0, sc = 0, ss = 0;
+  for (size_t i = 0; i < w.size(); ++i) {
+    const Pose2& p = particles_[i].pose;
+    sx += w[i] * p.x;
+    sy += w[i] * p.y;
+    sc += w[i] * std::cos(p.theta);
+    ss += w[i] * std::sin(p.theta);
+  }
+  PoseEstimate e;
+  e.mean = {sx, sy, std::atan2(ss, sc)};
+  double s2 = 0;
+  for (size_t i = 0; i < w.size(); ++i) {
+    const Pose2& p = particles_[i].pose;
+    const Eigen::Vector3d d(p.x - sx, p.y - sy, wrapAngle(p.theta - e.mean.theta));
+    e.covariance += w[i] * d * d.transpose();
+    s2 += w[i] * w[i];
+  }
+  e.ess = 1.0 / s2;
+  e.kidnapped = kidnapped_;
+  return e;
+}
+
+}  // namespace vslam::backend

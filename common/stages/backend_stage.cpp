@@ -1,0 +1,344 @@
+#include "stages/backend_stage.hpp"
+
+#include <vslam/map_t.hpp>
+#include <vslam/particle_set_t.hpp>
+#include <vslam/pose_estimate_t.hpp>
+
+#include "util/log.hpp"
+
+namespace vslam::stages {
+namespace {
+
+using backend::MeasurementStatus;
+using backend::MeasurementUse;
+using vslam::visual_measurement_t;
+
+static_assert(static_cast<int>(MeasurementStatus::kUnfiltered) ==
+              visual_measurement_t::STATUS_UNFILTERED);
+static_assert(static_cast<int>(MeasurementStatus::kAccepted) ==
+              visual_measurement_t::STATUS_ACCEPTED);
+static_assert(static_cast<int>(MeasurementStatus::kRejectedProjErr) ==
+              visual_measurement_t::STATUS_REJECTED_PROJ_ERR);
+static_assert(static_cast<int>(MeasurementStatus::kRejectedNumPoints) ==
+              visual_measurement_t::STATUS_REJECTED_NUM_POINTS);
+static_assert(static_cast<int>(MeasurementStatus::kRejectedSlope) ==
+              visual_measurement_t::STATUS_REJECTED_SLOPE);
+static_assert(static_cast<int>(MeasurementStatus::kRejectedInvalid) ==
+              visual_measurement_t::STATUS_REJECTED_INVALID);
+
+constexpr Utime kLogPeriod = 5 * kMicrosPerSecond;
+
+Utime periodUs(double rate_hz) { return rate_hz > 0 ? static_cast<Utime>(1e6 / rate_hz) : 0; }
+
+void copyCovariance(const Eigen::Matrix3d& c, double* out) {
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) out[r * 3 + k] = c(r, k);
+  }
+}
+
+}  // namespace
+
+BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
+                                            const config::RobotConfig& robot) {
+  using config::InRange;
+  BackendStageParams p;
+  backend::BackendParams& b = p.backend;
+  backend::FilterParams& f = b.filter;
+  f.num_particles = static_cast<int>(node.getInt("num_particles", 200, InRange{1, 1e6}));
+  f.num_threads = static_cast<int>(node.getInt("threads", 0, InRange{0, 256}));
+  f.seed = static_cast<uint64_t>(node.getInt("seed", 1, InRange{0, 9.0e18}));
+  f.motion.sigma_translation = node.getDouble("sigma_translation", config::nonNegative());
+  f.motion.sigma_rotation = node.getDouble("sigma_rotation", config::nonNegative());
+  f.measurement_sigma_xy_m = node.getDouble("measurement_sigma_xy_m", 0.09, InRange{1e-4, 10.0});
+  f.measurement_sigma_theta_rad =
+      degToRad(node.getDouble("measurement_sigma_theta_deg", 2.4975, InRange{1e-3, 90.0}));
+  f.resample_ess_fraction = node.getDouble("resample_ess_fraction", 0.5, InRange{0.0, 1.0});
+  b.max_step_m = node.getDouble("max_step_m", 1.0, config::positive());
+  b.max_step_rad = degToRad(node.getDouble("max_step_deg", 90.0, InRange{1, 180}));
+  b.max_measurement_age_s = node.getDouble("max_measurement_age_s", 5.0, InRange{0.01, 600});
+  b.max_measurement_lead_s = node.getDouble("max_measurement_lead_s", 0.5, InRange{0, 60});
+  p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
+  p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
+
+  if (node.has("prefilter")) {
+    const config::ConfigNode pf = node.child("prefilter");
+    b.prefilter.max_proj_err_rms_px = pf.getDouble("max_proj_err_rms_px", 3.0, InRange{1e-3, 1000});
+    b.prefilter.min_num_points =
+        static_cast<int>(pf.getInt("min_num_points", 10, InRange{0, 100000}));
+    b.prefilter.max_slope = pf.getDouble("max_slope", 0.1, InRange{0, 1e9});
+    pf.requireAllKeysUsed();
+  }
+  if (node.has("mixture")) {
+    const config::ConfigNode mx = node.child("mixture");
+    backend::MixtureParams& m = f.mixture;
+    m.dual_ratio_min = mx.getDouble("dual_ratio_min", 0.1, InRange{0, 1});
+    m.dual_ratio_max = mx.getDouble("dual_ratio_max", 0.5, InRange{0, 1});
+    if (m.dual_ratio_max < m.dual_ratio_min)
+      throw mx.error("dual_ratio_max", "must be at least dual_ratio_min");
+    m.agreement_smoothing = mx.getDouble("agreement_smoothing", 0.3, InRange{1e-3, 1});
+    m.motion_min_sigma_xy_m = mx.getDouble("motion_min_sigma_xy_m", 0.02, InRange{1e-4, 100});
+    m.motion_min_sigma_theta_rad =
+        degToRad(mx.getDouble("motion_min_sigma_theta_deg", 1.15, InRange{1e-3, 180}));
+    mx.requireAllKeysUsed();
+  }
+  if (node.has("kidnap")) {
+    const config::ConfigNode kd = node.child("kidnap");
+    backend::KidnapParams& k = f.kidnap;
+    k.detect_agreement = kd.getDouble("detect_agreement", 1e-3, InRange{0, 1});
+    k.detect_count = static_cast<int>(kd.getInt("detect_count", 3, InRange{1, 1000}));
+    k.recover_agreement = kd.getDouble("recover_agreement", 0.1, InRange{0, 1});
+    k.recover_count = static_cast<int>(kd.getInt("recover_count", 2, InRange{1, 1000}));
+    kd.requireAllKeysUsed();
+  }
+  p.odometry_channel = robot.channels.odometry;
+  p.measurement_channel = robot.channels.visual_measurement;
+  p.filtered_channel = robot.channels.visual_measurement_filtered;
+  p.pose_channel = robot.channels.pose_estimate;
+  p.map_channel = robot.channels.map;
+  p.particles_channel = robot.channels.particles;
+  try {
+    b.validate();
+  } catch (const std::invalid_argument& e) {
+    throw node.error("num_particles", e.what());
+  }
+  return p;
+}
+
+BackendStage::BackendStage(BackendStageParams params)
+    : params_(std::move(params)), backend_(params_.backend) {}
+
+std::vector<std::string> BackendStage::outputChannels() const {
+  return {params_.filtered_channel, params_.pose_channel, params_.map_channel,
+          params_.particles_channel};
+}
+
+void BackendStage::start(bus::StageContext& ctx) {
+  ctx_ = &ctx;
+  ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
+                                       [this](const vslam::odometry_t& m) { onOdometry(m); });
+  // Several front-ends publish here; a burst of a frame's measurements from
+  // each camera must not overflow the queue.
+  ctx.bus.subscribe<visual_measurement_t>(
+      params_.measurement_channel, [this](const visual_measurement_t& m) { onMeasurement(m); },
+      100);
+}
+
+template <class... Args>
+void BackendStage::logLimited(LogReason reason, const Args&... args) {
+  const Utime now = ctx_->clock.now();
+  if (last_log_[reason] != 0 && now - last_log_[reason] < kLogPeriod) {
+    ++suppressed_[reason];
+    return;
+  }
+  if (suppressed_[reason] > 0) {
+    log::warn(args..., " (", suppressed_[reason], " more like it not logged)");
+  } else {
+    log::warn(args...);
+  }
+  last_log_[reason] = now;
+  suppressed_[reason] = 0;
+}
+
+void BackendStage::onOdometry(const vslam::odometry_t& msg) {
+  using Outcome = OdometryIncrements::Outcome;
+  const Outcome outcome = backend_.addOdometry({msg.utime, msg.seq, {msg.x, msg.y, msg.theta}});
+  switch (outcome) {
+    case Outcome::kStep:
+    case Outcome::kFirst:
+      break;
+    case Outcome::kInvalid:
+      ctx_->bus.reportMalformed(
+          params_.odometry_channel,
+          "odometry seq " + std::to_string(msg.seq) + " has a non-finite pose");
+      return;
+    case Outcome::kStale:
+      ctx_->bus.countDropped();
+      return;
+    case Outcome::kReset:
+    case Outcome::kImplausible:
+      logLimited(kLogOdometry, "odometry seq ", msg.seq, ": ",
+                 OdometryIncrements::describe(outcome));
+      break;
+  }
+  publishPose(msg);
+  if (params_.map_rate_hz > 0 && msg.utime >= next_map_) {
+    publishMap(msg.utime);
+    next_map_ = msg.utime + periodUs(params_.map_rate_hz);
+  }
+  if (params_.particles_rate_hz > 0 && msg.utime >= next_particles_) {
+    publishParticles(msg.utime);
+    next_particles_ = msg.utime + periodUs(params_.particles_rate_hz);
+  }
+}
+
+void BackendStage::onMeasurement(const visual_measurement_t& msg) {
+  backend::MeasurementInput in;
+  in.utime = msg.utime;
+  in.landmark_id = msg.landmark_id;
+  in.relative = {msg.dx, msg.dy, msg.dtheta};
+  in.proj_err_rms_px = msg.proj_err_rms;
+  in.num_points = msg.num_points;
+  in.slope = msg.slope;
+  const Utime t0 = monotonicUtime();
+  const backend::MeasurementResult r = backend_.addMeasurement(in);
+  const double ms = 1e-3 * static_cast<double>(monotonicUtime() - t0);
+
+  visual_measurement_t out = msg;
+  out.status = static_cast<int8_t>(r.status);
+  ctx_->bus.publish(params_.filtered_channel, out);
+
+  switch (r.use) {
+    case MeasurementUse::kUsed:
+      ++period_updates_;
+      period_update_ms_ += ms;
+      period_max_update_ms_ = std::max(period_max_update_ms_, ms);
+      if (r.update.kidnap_detected) {
+        log::warn("kidnapping detected at measurement ", msg.seq, " of ", msg.camera, " (landmark ",
+                  msg.landmark_id, ", agreement ", r.update.agreement,
+                  "): sampling all particles from the measurements");
+      }
+      if (r.update.recovered) {
+        log::info("relocalized at measurement ", msg.seq, " of ", msg.camera, " (landmark ",
+                  msg.landmark_id, ", agreement ", r.update.agreement, ")");
+      }
+      break;
+    case MeasurementUse::kRejected:
+      if (r.status == MeasurementStatus::kRejectedInvalid) {
+        ctx_->bus.reportMalformed(params_.measurement_channel,
+                                  "measurement seq " + std::to_string(msg.seq) + " of " +
+                                      msg.camera + " has non-finite or negative fields");
+      }
+      break;
+    case MeasurementUse::kInvalidLandmark:
+      logLimited(kLogLandmark, "measurement seq ", msg.seq, " of ", msg.camera,
+                 ": invalid landmark id ", msg.landmark_id, "; not used");
+      ctx_->bus.countDropped();
+      break;
+    case MeasurementUse::kNoOdometry:
+    case MeasurementUse::kTooOld:
+    case MeasurementUse::kTooNew: {
+      const auto& last = backend_.lastOdometry();
+      logLimited(kLogTiming, "measurement seq ", msg.seq, " of ", msg.camera, " at ", msg.utime,
+                 ": ", backend::toString(r.use), " (newest odometry ", last ? last->utime : 0,
+                 "); not used");
+      ctx_->bus.countDropped();
+      break;
+    }
+  }
+}
+
+void BackendStage::publishPose(const vslam::odometry_t& msg) {
+  const backend::PoseEstimate e = backend_.filter().estimate();
+  vslam::pose_estimate_t out;
+  out.utime = msg.utime;
+  out.seq = pose_seq_++;
+  out.estimator = ctx_->instance;
+  out.x = e.mean.x;
+  out.y = e.mean.y;
+  out.theta = e.mean.theta;
+  copyCovariance(e.covariance, out.covariance);
+  out.odom_x = msg.x;
+  out.odom_y = msg.y;
+  out.odom_theta = msg.theta;
+  out.num_particles = static_cast<int32_t>(backend_.filter().particles().size());
+  out.effective_sample_size = e.ess;
+  out.kidnapped = e.kidnapped;
+  ctx_->bus.publish(params_.pose_channel, out);
+}
+
+void BackendStage::publishMap(Utime utime) {
+  const backend::ParticleFilter& pf = backend_.filter();
+  const backend::Particle& best = pf.particles()[pf.bestParticle()];
+  vslam::map_t out;
+  out.utime = utime;
+  out.seq = map_seq_++;
+  out.estimator = ctx_->instance;
+  out.database_id = params_.database_id;
+  best.map.forEach([&](uint32_t slot, const backend::LandmarkEstimate& lm) {
+    vslam::landmark_pose_t l;
+    l.landmark_id = pf.landmarkId(slot);
+    l.x = lm.mean.x();
+    l.y = lm.mean.y();
+    l.theta = lm.mean.z();
+    copyCovariance(lm.covariance, l.covariance);
+    l.num_observations = lm.num_observations;
+    out.landmarks.push_back(l);
+  });
+  out.num_landmarks = static_cast<int32_t>(out.landmarks.size());
+  ctx_->bus.publish(params_.map_channel, out);
+}
+
+void BackendStage::publishParticles(Utime utime) {
+  const backend::ParticleFilter& pf = backend_.filter();
+  const std::vector<double> w = pf.normalizedWeights();
+  vslam::particle_set_t out;
+  out.utime = utime;
+  out.seq = particles_seq_++;
+  out.estimator = ctx_->instance;
+  double s2 = 0;
+  out.particles.reserve(w.size());
+  for (size_t i = 0; i < w.size(); ++i) {
+    const backend::Particle& p = pf.particles()[i];
+    vslam::particle_t q;
+    q.x = p.pose.x;
+    q.y = p.pose.y;
+    q.theta = p.pose.theta;
+    q.weight = w[i];
+    q.kind = p.dual ? vslam::particle_t::KIND_DUAL : vslam::particle_t::KIND_NOMINAL;
+    out.particles.push_back(q);
+    s2 += w[i] * w[i];
+  }
+  out.effective_sample_size = 1.0 / s2;
+  out.dual_ratio = pf.lastDualRatio();
+  out.num_particles = static_cast<int32_t>(out.particles.size());
+  ctx_->bus.publish(params_.particles_channel, out);
+}
+
+void BackendStage::collectHealth(bus::HealthReport& report) {
+  const backend::BackendCounters& c = backend_.counters();
+  for (int s = static_cast<int>(MeasurementStatus::kAccepted); s < backend::kNumMeasurementStatus;
+       ++s) {
+    report.add(
+        std::string("measurements_") + backend::metricName(static_cast<MeasurementStatus>(s)),
+        static_cast<double>(c.status[s]), "count");
+  }
+  report.add("measurements_used",
+             static_cast<double>(c.use[static_cast<int>(MeasurementUse::kUsed)]), "count");
+  report.add("measurements_unused_landmark_id",
+             static_cast<double>(c.use[static_cast<int>(MeasurementUse::kInvalidLandmark)]),
+             "count");
+  report.add("measurements_unused_timing",
+             static_cast<double>(c.use[static_cast<int>(MeasurementUse::kNoOdometry)] +
+                                 c.use[static_cast<int>(MeasurementUse::kTooOld)] +
+                                 c.use[static_cast<int>(MeasurementUse::kTooNew)]),
+             "count");
+  report.add("landmarks", static_cast<double>(backend_.filter().numLandmarks()), "count");
+  report.add("particles", static_cast<double>(backend_.filter().particles().size()), "count");
+  const backend::PoseEstimate e = backend_.filter().estimate();
+  report.add("effective_sample_size", e.ess, "count");
+  report.add("dual_ratio", backend_.filter().lastDualRatio());
+  report.add("kidnapped", e.kidnapped ? 1.0 : 0.0);
+  report.add("kidnaps_detected", static_cast<double>(c.kidnaps_detected), "count");
+  report.add("recoveries", static_cast<double>(c.recoveries), "count");
+  report.add("resamplings", static_cast<double>(c.resamplings), "count");
+  report.add("odometry_ignored", static_cast<double>(c.odometry_ignored), "count");
+  report.add("position_sigma", std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)), "m");
+  report.add("updates", static_cast<double>(period_updates_), "count");
+  report.add("update_ms_mean",
+             period_updates_ > 0 ? period_update_ms_ / static_cast<double>(period_updates_) : 0.0,
+             "ms");
+  report.add("update_ms_max", period_max_update_ms_, "ms");
+  if (e.kidnapped) report.warn("kidnapping suspected: relocalizing from visual measurements");
+  period_updates_ = 0;
+  period_update_ms_ = 0;
+  period_max_update_ms_ = 0;
+}
+
+void registerBackend(bus::StageRegistry& registry) {
+  registry.add("backend", [](const bus::StageSetup& setup) {
+    return std::make_unique<BackendStage>(
+        BackendStageParams::load(setup.params, setup.stack.robot));
+  });
+}
+
+}  // namespace vslam::stages

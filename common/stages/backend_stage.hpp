@@ -1,0 +1,78 @@
+#pragma once
+// vslam-backend: the vSLAM pre-filter (paper section 5) and SLAM back-end
+// (section 6) over the library common/backend (no LCM there; this is the
+// adapter).
+//
+// Inputs: ODOMETRY (cumulative pose; differences drive the motion model) and
+// VISUAL_MEASUREMENT from any number of front-ends (cameras), all fused in one
+// filter. Outputs:
+//   VISUAL_MEASUREMENT_FILTERED  every measurement again, status = the pre-filter's verdict
+//   POSE_ESTIMATE                per odometry reading: particle mean, covariance, ESS, kidnapped
+//   MAP                          at map_rate_hz (robot time): the best particle's landmark poses
+//   PARTICLES                    at particles_rate_hz: the particle set with weights and kinds
+//   HEALTH                       accepted/rejected counts by reason, filter figures
+// Bad input (non-finite odometry or measurements, negative landmark ids,
+// measurements outside the odometry history) is counted and logged at most
+// once per reason every few seconds; the stage keeps running.
+
+#include <array>
+#include <vslam/odometry_t.hpp>
+#include <vslam/visual_measurement_t.hpp>
+
+#include "backend/backend.hpp"
+#include "bus/stage.hpp"
+#include "bus/stage_registry.hpp"
+
+namespace vslam::stages {
+
+struct BackendStageParams {
+  backend::BackendParams backend;
+  std::string odometry_channel;
+  std::string measurement_channel;
+  std::string filtered_channel;
+  std::string pose_channel;
+  std::string map_channel;
+  std::string particles_channel;
+  double map_rate_hz = 1.0;        // MAP messages per second of robot time; 0: none
+  double particles_rate_hz = 2.0;  // PARTICLES messages per second of robot time; 0: none
+  std::string database_id;         // map_t.database_id ("" until a landmark DB names one)
+
+  static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
+};
+
+class BackendStage final : public bus::Stage {
+ public:
+  explicit BackendStage(BackendStageParams params);
+  void start(bus::StageContext& ctx) override;
+  void collectHealth(bus::HealthReport& report) override;
+  std::vector<std::string> outputChannels() const override;
+
+  const backend::Backend& backend() const { return backend_; }
+
+ private:
+  void onOdometry(const vslam::odometry_t& msg);
+  void onMeasurement(const vslam::visual_measurement_t& msg);
+  void publishPose(const vslam::odometry_t& msg);
+  void publishMap(Utime utime);
+  void publishParticles(Utime utime);
+  // At most one log line per reason per kLogPeriod of stage time.
+  enum LogReason { kLogOdometry, kLogMeasurement, kLogLandmark, kLogTiming, kLogKidnap, kNumLog };
+  template <class... Args>
+  void logLimited(LogReason reason, const Args&... args);
+
+  BackendStageParams params_;
+  backend::Backend backend_;
+  bus::StageContext* ctx_ = nullptr;
+  int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
+  Utime next_map_ = 0, next_particles_ = 0;
+  std::array<Utime, kNumLog> last_log_{};
+  std::array<int64_t, kNumLog> suppressed_{};
+  // Period figures for health.
+  int64_t period_updates_ = 0;
+  double period_update_ms_ = 0;
+  double period_max_update_ms_ = 0;
+};
+
+void registerBackend(bus::StageRegistry& registry);
+
+}  // namespace vslam::stages

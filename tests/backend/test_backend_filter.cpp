@@ -1,0 +1,515 @@
+// The back-end's particle filter (vSLAM paper section 6): the landmark Kalman
+// filter against a hand computation, the copy-on-write landmark maps,
+// importance weights and resampling, dual particles, kidnap recovery, and
+// determinism across thread counts.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <numeric>
+
+#include "backend/landmark_map.hpp"
+#include "backend/measurement_model.hpp"
+#include "backend/particle_filter.hpp"
+#include "synthetic_world.hpp"
+
+using namespace vslam;
+using namespace vslam::backend;
+
+namespace {
+
+Eigen::Matrix3d diag(double a, double b, double c) { return Eigen::Vector3d(a, b, c).asDiagonal(); }
+
+FilterParams basicParams(int particles) {
+  FilterParams p;
+  p.num_particles = particles;
+  p.motion = {0.03, 0.03};
+  p.measurement_sigma_xy_m = 0.05;
+  p.measurement_sigma_theta_rad = 0.02;
+  p.mixture.dual_ratio_min = 0;
+  p.mixture.dual_ratio_max = 0;
+  return p;
+}
+
+// Runs a synthetic world through a filter; returns the final estimate error.
+struct RunResult {
+  std::vector<double> errors;  // position error per measurement tick
+  std::vector<bool> kidnapped;
+  std::vector<size_t> ticks;
+};
+
+RunResult runWorld(const test::SyntheticWorld& world, ParticleFilter& pf) {
+  RunResult out;
+  const bool verbose = std::getenv("VSLAM_TEST_VERBOSE") != nullptr;
+  size_t next = 0;
+  const auto& meas = world.measurements();
+  for (size_t t = 1; t < world.odometry().size(); ++t) {
+    pf.predict(world.odometry()[t - 1].between(world.odometry()[t]));
+    while (next < meas.size() && meas[next].tick == t) {
+      Observation obs;
+      obs.landmark_id = meas[next].landmark_id;
+      obs.relative = meas[next].y;
+      const UpdateReport rep = pf.update(obs);
+      const PoseEstimate e = pf.estimate();
+      if (verbose) {
+        std::printf("tick %zu lm %lld %s agreement %.3f smoothed %.3f dual %d ess %.0f err %.3f\n",
+                    t, static_cast<long long>(obs.landmark_id), toString(rep.kind), rep.agreement,
+                    rep.smoothed_agreement, rep.num_dual, rep.ess,
+                    std::hypot(e.mean.x - world.truth()[t].x, e.mean.y - world.truth()[t].y));
+      }
+      out.errors.push_back(
+          std::hypot(e.mean.x - world.truth()[t].x, e.mean.y - world.truth()[t].y));
+      out.kidnapped.push_back(e.kidnapped);
+      out.ticks.push_back(t);
+      ++next;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// --- Measurement model and the landmark Kalman filter -----------------------
+
+TEST(MeasurementModel, KalmanUpdateMatchesHandComputation) {
+  // phi = (1, 2, 0), P = diag(0.04, 0.09, 0.01); robot s = (2, 2.5, 0.1);
+  // R = diag(0.0081, 0.0081, 0.0019); y = (1.05, 0.45, 0.12).
+  // By hand (phi_theta = 0): h = (1, 0.5, 0.1), H = [-1 0 0.5; 0 -1 -1; 0 0 -1],
+  // nu = (0.05, -0.05, 0.02), S = H P H^T + R, K = P H^T S^-1, Joseph form.
+  LandmarkEstimate lm;
+  lm.mean = {1, 2, 0};
+  lm.covariance = diag(0.04, 0.09, 0.01);
+  lm.num_observations = 1;
+  const Eigen::Matrix3d r = diag(0.0081, 0.0081, 0.0019);
+  const Innovation in = innovation(lm, {2, 2.5, 0.1}, {1.05, 0.45, 0.12}, r);
+  Eigen::Matrix3d s_expected;
+  s_expected << 0.0506, -0.005, -0.005, -0.005, 0.1081, 0.01, -0.005, 0.01, 0.0119;
+  EXPECT_LT((in.s - s_expected).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(in.nu.x(), 0.05, 1e-12);
+  EXPECT_NEAR(in.nu.y(), -0.05, 1e-12);
+  EXPECT_NEAR(in.nu.z(), 0.02, 1e-12);
+  EXPECT_NEAR(in.mahalanobis_sq, 0.1474373773429276, 1e-12);
+  EXPECT_NEAR(in.log_likelihood, 2.0510561214424894, 1e-12);
+  kalmanUpdate(lm, in, r);
+  EXPECT_NEAR(lm.mean.x(), 0.9522663597544948, 1e-12);
+  EXPECT_NEAR(lm.mean.y(), 2.059448995220587, 1e-12);
+  EXPECT_NEAR(lm.mean.z(), -0.01479940479043993, 1e-12);
+  Eigen::Matrix3d p_expected;
+  p_expected << 0.0070053887504155565, -0.0005944586649077179, 0.0006479599447494125,
+      -0.000594458664907718, 0.008742819347800974, -0.0014296730891030617, 0.0006479599447494125,
+      -0.0014296730891030615, 0.001558343667122337;
+  EXPECT_LT((lm.covariance - p_expected).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_EQ(lm.num_observations, 2);
+}
+
+TEST(MeasurementModel, JacobianMatchesNumericalDerivative) {
+  const Pose2 s{0.7, -1.2, 2.9};
+  const Pose2 phi{-0.4, 0.3, -2.8};  // angles near +-pi: wrapping must not matter
+  const Eigen::Matrix3d h = measurementJacobianLandmark(s, phi);
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d dp = Eigen::Vector3d::Zero();
+    dp[k] = 1e-6;
+    const Pose2 a = predictMeasurement(s, toPose(phi.vector() + dp));
+    const Pose2 b = predictMeasurement(s, toPose(phi.vector() - dp));
+    const Eigen::Vector3d num((a.x - b.x) / 2e-6, (a.y - b.y) / 2e-6,
+                              wrapAngle(a.theta - b.theta) / 2e-6);
+    EXPECT_LT((num - h.col(k)).cwiseAbs().maxCoeff(), 1e-6) << "column " << k;
+  }
+}
+
+TEST(MeasurementModel, InitializationInvertsTheMeasurement) {
+  const Pose2 s{3.0, -1.0, 2.5};
+  const Pose2 y{0.6, -0.3, 0.4};
+  const Eigen::Matrix3d r = diag(0.0081, 0.0081, 0.0019);
+  const LandmarkEstimate lm = initializeLandmark(s, y, r);
+  const Pose2 back = predictMeasurement(s, toPose(lm.mean));
+  EXPECT_NEAR(back.x, y.x, 1e-12);
+  EXPECT_NEAR(back.y, y.y, 1e-12);
+  EXPECT_NEAR(back.theta, y.theta, 1e-12);
+  // Covariance = J R J^T with J = dphi/dy, numerically.
+  Eigen::Matrix3d j;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d dy = Eigen::Vector3d::Zero();
+    dy[k] = 1e-6;
+    const Pose2 a = s.compose(toPose(y.vector() + dy).inverse());
+    const Pose2 b = s.compose(toPose(y.vector() - dy).inverse());
+    j.col(k) = Eigen::Vector3d(a.x - b.x, a.y - b.y, wrapAngle(a.theta - b.theta)) / 2e-6;
+  }
+  EXPECT_LT((lm.covariance - j * r * j.transpose()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(lm.num_observations, 1);
+}
+
+TEST(MeasurementModel, DualSamplesAreCentredOnTheLandmarkComposedWithTheMeasurement) {
+  LandmarkEstimate lm;
+  lm.mean = {2.0, 1.0, 0.5};
+  lm.covariance = diag(0.01, 0.0025, 0.0004);
+  lm.num_observations = 5;
+  const Pose2 y{0.4, 0.2, -0.3};
+  const Eigen::Matrix3d r = diag(0.0081, 0.0081, 0.0019);
+  const Eigen::Matrix3d chol_r = r.llt().matrixL();
+  const Pose2 expected = toPose(lm.mean).compose(y);
+  // Linearised covariance of phi (+) y: Jphi P Jphi^T + Jy R Jy^T.
+  const double c = std::cos(lm.mean.z()), s = std::sin(lm.mean.z());
+  Eigen::Matrix3d jphi, jy;
+  jphi << 1, 0, -s * y.x - c * y.y, 0, 1, c * y.x - s * y.y, 0, 0, 1;
+  jy << c, -s, 0, s, c, 0, 0, 0, 1;
+  const Eigen::Matrix3d cov_expected =
+      jphi * lm.covariance * jphi.transpose() + jy * r * jy.transpose();
+  const int n = 20000;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> d(n);
+  for (int i = 0; i < n; ++i) {
+    RandomStream rng(3, 0, static_cast<uint64_t>(i), 0);
+    const Pose2 p = sampleFromMeasurement(lm, y, chol_r, rng);
+    d[i] = {p.x - expected.x, p.y - expected.y, wrapAngle(p.theta - expected.theta)};
+    mean += d[i] / n;
+  }
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& v : d) cov += (v - mean) * (v - mean).transpose() / n;
+  EXPECT_LT(mean.head<2>().norm(), 0.003);
+  EXPECT_LT(std::abs(mean.z()), 0.002);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(cov(k, k), cov_expected(k, k), 0.06 * cov_expected(k, k)) << k;
+  }
+}
+
+// --- Copy-on-write landmark maps --------------------------------------------
+
+TEST(LandmarkMap, CopiesShareEverythingUntilChanged) {
+  LandmarkMap a;
+  for (uint32_t slot = 0; slot < 500; ++slot) {
+    LandmarkEstimate& e = a.mutableSlot(slot);
+    e.mean = {double(slot), 0, 0};
+    e.num_observations = 1;
+  }
+  EXPECT_EQ(a.depth(), 3);  // 4 * 8^3 = 2048 >= 500 > 4 * 8^2
+  const auto before = a.countNodes();
+  EXPECT_EQ(before.shared, 0u);
+
+  LandmarkMap b = a;  // O(1)
+  EXPECT_TRUE(b.sameRoot(a));
+  EXPECT_EQ(a.countNodes().shared, before.total);
+
+  b.mutableSlot(123).mean.x() = -1;
+  EXPECT_FALSE(b.sameRoot(a));
+  EXPECT_EQ(a.find(123)->mean.x(), 123);  // the original is untouched
+  EXPECT_EQ(b.find(123)->mean.x(), -1);
+  // b owns just the path to slot 123 (3 interior nodes and a leaf).
+  const auto nb = b.countNodes();
+  EXPECT_EQ(nb.total - nb.shared, 4u);
+  // Changing the same landmark again changes b's own path in place.
+  b.mutableSlot(123).mean.x() = -2;
+  EXPECT_EQ(b.countNodes().total - b.countNodes().shared, 4u);
+  EXPECT_EQ(a.find(123)->mean.x(), 123);
+
+  // Everything else is equal, and iteration is in slot order.
+  uint32_t expected = 0;
+  b.forEach([&](uint32_t slot, const LandmarkEstimate& e) {
+    EXPECT_EQ(slot, expected++);
+    if (slot != 123) {
+      EXPECT_EQ(e.mean.x(), slot);
+    }
+  });
+  EXPECT_EQ(expected, 500u);
+  EXPECT_EQ(b.find(500), nullptr);
+  EXPECT_EQ(b.find(100000), nullptr);
+
+  // Dropping a releases what only it held; b is intact.
+  a = LandmarkMap();
+  EXPECT_EQ(b.countNodes().shared, 0u);
+  EXPECT_EQ(b.find(7)->mean.x(), 7);
+}
+
+TEST(LandmarkMap, GrowsWhenASlotIsBeyondCapacity) {
+  LandmarkMap a;
+  a.mutableSlot(0).num_observations = 1;
+  EXPECT_EQ(a.depth(), 0);
+  LandmarkMap b = a;
+  b.mutableSlot(5000).num_observations = 1;
+  EXPECT_EQ(b.depth(), 4);
+  ASSERT_NE(b.find(0), nullptr);
+  ASSERT_NE(b.find(5000), nullptr);
+  EXPECT_EQ(a.find(5000), nullptr);
+  EXPECT_EQ(a.depth(), 0);
+}
+
+// --- Weights and resampling --------------------------------------------------
+
+TEST(ParticleFilter, WeightsAreTheMeasurementLikelihoods) {
+  FilterParams p = basicParams(3);
+  p.resample_ess_fraction = 0;  // keep the weights to look at
+  ParticleFilter pf(p);
+  // A landmark at the origin, seen from the start.
+  pf.update({42, {0, 0, 0}, Eigen::Matrix3d::Zero()});
+  const LandmarkEstimate lm0 = *pf.particles()[0].map.find(0);
+  // Move the particles apart by hand: 0, 10 cm and 20 cm to the left.
+  auto& ps = pf.mutableParticles();
+  ps[1].pose.y = 0.1;
+  ps[2].pose.y = 0.2;
+  const Pose2 y{0, 0.1, 0};
+  const UpdateReport rep = pf.update({42, y, Eigen::Matrix3d::Zero()});
+  EXPECT_EQ(rep.kind, UpdateKind::kMixture);
+  EXPECT_EQ(rep.num_dual, 0);
+  // Each particle's likelihood N(y; h(s, phi), H P H^T + R), with P the
+  // initial landmark covariance (the same in all three particles).
+  std::vector<double> like;
+  for (double py : {0.0, 0.1, 0.2}) {
+    like.push_back(
+        std::exp(innovation(lm0, {0, py, 0}, y, p.measurementCovariance()).log_likelihood));
+  }
+  const double sum = like[0] + like[1] + like[2];
+  const std::vector<double> w = pf.normalizedWeights();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(w[i], like[i] / sum, 1e-12) << i;
+  EXPECT_GT(w[1], w[0]);
+  EXPECT_GT(w[1], w[2]);
+  EXPECT_NEAR(pf.effectiveSampleSize(), 1.0 / (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]), 1e-9);
+}
+
+TEST(ParticleFilter, SystematicResamplingCopiesParticlesInProportionToWeight) {
+  FilterParams p = basicParams(4);
+  ParticleFilter pf(p);
+  pf.update({1, {0.5, 0, 0}, Eigen::Matrix3d::Zero()});
+  auto& ps = pf.mutableParticles();
+  const double lw[4] = {std::log(0.5), std::log(0.25), std::log(0.25), -1e300};
+  for (int i = 0; i < 4; ++i) {
+    ps[i].pose.x = i;
+    ps[i].log_weight = lw[i];
+  }
+  pf.resample();
+  // Weights 1/2, 1/4, 1/4, 0: systematic resampling gives exactly 2, 1, 1, 0
+  // copies whatever its random offset.
+  int count[4] = {0, 0, 0, 0};
+  for (const Particle& q : pf.particles()) ++count[static_cast<int>(q.pose.x)];
+  EXPECT_EQ(count[0], 2);
+  EXPECT_EQ(count[1], 1);
+  EXPECT_EQ(count[2], 1);
+  EXPECT_EQ(count[3], 0);
+  for (double w : pf.normalizedWeights()) EXPECT_DOUBLE_EQ(w, 0.25);
+  // The two copies of particle 0 share their map.
+  EXPECT_TRUE(pf.particles()[0].map.sameRoot(pf.particles()[1].map));
+}
+
+TEST(ParticleFilter, ResamplesWhenTheEffectiveSampleSizeDrops) {
+  FilterParams p = basicParams(500);
+  p.resample_ess_fraction = 0.5;
+  ParticleFilter pf(p);
+  // A landmark 1 m behind the start, known precisely.
+  const Eigen::Matrix3d precise = diag(1e-6, 1e-6, 1e-6);
+  pf.update({1, {1.0, 0, 0}, precise});
+  // Drive 3 m: the particles spread (sigma ~5 cm along, ~9 cm across), then
+  // a precise measurement of the landmark makes most of them unlikely.
+  for (int i = 0; i < 300; ++i) pf.predict({0.01, 0, 0});
+  EXPECT_NEAR(pf.effectiveSampleSize(), 500, 1e-6);
+  const UpdateReport rep = pf.update({1, {4.0, 0, 0}, diag(1e-4, 1e-4, 1e-4)});
+  EXPECT_LT(rep.ess, 250);
+  EXPECT_TRUE(rep.resampled);
+  EXPECT_NEAR(pf.effectiveSampleSize(), 500, 1e-6);
+  // And a consistent filter keeps the estimate within noise of the truth.
+  EXPECT_LT(std::hypot(pf.estimate().mean.x - 3.0, pf.estimate().mean.y), 0.1);
+}
+
+// --- Mixture proposal ---------------------------------------------------------
+
+TEST(ParticleFilter, NominalAndDualImportanceFactorsAreConsistent) {
+  // With a fixed ratio of 1/2, consistent importance factors give each half
+  // about half the weight (each half estimates the same evidence p(y)).
+  // Inconsistent ones (e.g. dual factors of 1, or unnormalised densities)
+  // give one half nearly all of it. Averaged over seeds.
+  double dual_mass_sum = 0;
+  const int seeds = 20;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    FilterParams p = basicParams(2000);
+    p.seed = static_cast<uint64_t>(seed);
+    p.resample_ess_fraction = 0;
+    p.mixture.dual_ratio_min = 0.5;
+    p.mixture.dual_ratio_max = 0.5;
+    p.kidnap.detect_agreement = 0;  // never
+    ParticleFilter pf(p);
+    pf.update({1, {0, 0, 0}, Eigen::Matrix3d::Zero()});
+    for (int i = 0; i < 100; ++i) pf.predict({0.02, 0, 0});  // 2 m: sigma ~4 cm, 5 degrees
+    pf.update({1, {2.0, 0.03, 0.02}, Eigen::Matrix3d::Zero()});
+    const std::vector<double> w = pf.normalizedWeights();
+    double dual_mass = 0;
+    int duals = 0;
+    for (size_t i = 0; i < w.size(); ++i) {
+      if (pf.particles()[i].dual) {
+        dual_mass += w[i];
+        ++duals;
+      }
+    }
+    EXPECT_EQ(duals, 1000);
+    dual_mass_sum += dual_mass;
+  }
+  EXPECT_NEAR(dual_mass_sum / seeds, 0.5, 0.12);
+}
+
+TEST(ParticleFilter, DualParticlesPutMassNearTheTruePose) {
+  // The particles are all 1.5 m away from the truth (wrong odometry); a
+  // measurement of a well-known landmark: the dual particles land near the
+  // truth, the nominal ones do not.
+  FilterParams p = basicParams(400);
+  p.resample_ess_fraction = 0;
+  p.mixture.dual_ratio_min = 0.25;
+  p.mixture.dual_ratio_max = 0.25;
+  p.kidnap.detect_agreement = 0;
+  ParticleFilter pf(p);
+  pf.update({9, {0, 0, 0}, Eigen::Matrix3d::Zero()});      // landmark at the origin
+  for (int i = 0; i < 100; ++i) pf.predict({0.01, 0, 0});  // particles near (1, 0)
+  const Pose2 truth{-0.5, 0.2, 0.1};
+  const Pose2 y = predictMeasurement(truth, {0, 0, 0});
+  pf.update({9, y, Eigen::Matrix3d::Zero()});
+  int near = 0, duals = 0;
+  for (const Particle& q : pf.particles()) {
+    if (!q.dual) {
+      EXPECT_GT(std::hypot(q.pose.x - truth.x, q.pose.y - truth.y), 1.0);
+      continue;
+    }
+    ++duals;
+    near += std::hypot(q.pose.x - truth.x, q.pose.y - truth.y) < 0.25 &&
+            std::abs(wrapAngle(q.pose.theta - truth.theta)) < 0.15;
+  }
+  EXPECT_EQ(duals, 100);
+  EXPECT_GE(near, 95);
+}
+
+// --- Kidnapping ----------------------------------------------------------------
+
+TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
+  test::SyntheticParams sp;
+  test::SyntheticWorld world(sp);
+  const double perimeter = 2 * (sp.width_m + sp.height_m);
+  const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
+  // One and a half laps of mapping, then the robot is carried 4 m further
+  // along its path (round a corner: 1-4 m away, turned by 90 degrees); it
+  // goes on for another lap.
+  const size_t kidnap_tick = lap_ticks + lap_ticks / 2;
+  world.build(2.6, kidnap_tick, 4.0);
+  FilterParams p = basicParams(300);
+  p.mixture.dual_ratio_min = 0.1;
+  p.mixture.dual_ratio_max = 0.5;
+  ParticleFilter pf(p);
+  const RunResult r = runWorld(world, pf);
+
+  size_t first_after = 0;
+  while (first_after < r.ticks.size() && r.ticks[first_after] < kidnap_tick) ++first_after;
+  ASSERT_LT(first_after + 20, r.ticks.size());
+  // Before: tracking, never kidnapped. (The error is the map's: up to ~30 cm
+  // of odometry drift before the loop closes at the end of the first lap.)
+  for (size_t i = 0; i < first_after; ++i) {
+    EXPECT_FALSE(r.kidnapped[i]) << "measurement " << i;
+    EXPECT_LT(r.errors[i], 0.4) << "measurement " << i;
+  }
+  EXPECT_GT(r.errors[first_after], 1.0);  // the kidnapping happened
+  // Detected within a few measurements, and relocalized.
+  bool detected = false;
+  size_t recovered_at = 0;
+  for (size_t i = first_after; i < r.ticks.size(); ++i) {
+    detected = detected || r.kidnapped[i];
+    if (detected && !r.kidnapped[i] && r.errors[i] < 0.3) {
+      recovered_at = i;
+      break;
+    }
+  }
+  EXPECT_TRUE(detected);
+  ASSERT_GT(recovered_at, 0u) << "never relocalized";
+  EXPECT_LT(recovered_at - first_after, 15u);
+  // And stays localized.
+  for (size_t i = recovered_at; i < r.ticks.size(); ++i) {
+    EXPECT_LT(r.errors[i], 0.3) << "measurement " << i;
+  }
+}
+
+TEST(ParticleFilter, WithoutDualParticlesAKidnappedFilterStaysLost) {
+  // The control for the test above: the basic filter (6.1) cannot recover.
+  test::SyntheticParams sp;
+  test::SyntheticWorld world(sp);
+  const double perimeter = 2 * (sp.width_m + sp.height_m);
+  const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
+  world.build(2.6, lap_ticks + lap_ticks / 2, 4.0);
+  FilterParams p = basicParams(300);
+  p.kidnap.detect_agreement = 0;  // no kidnap detection, no duals
+  ParticleFilter pf(p);
+  const RunResult r = runWorld(world, pf);
+  EXPECT_GT(r.errors.back(), 0.5);
+}
+
+// --- Determinism ---------------------------------------------------------------
+
+TEST(ParticleFilter, FixedSeedGivesTheSameParticlesWithOneOrTwoThreads) {
+  test::SyntheticParams sp;
+  test::SyntheticWorld world(sp);
+  world.build(1.3);
+  std::vector<std::vector<Particle>> finals;
+  for (int threads : {1, 2}) {
+    FilterParams p = basicParams(1000);
+    p.mixture.dual_ratio_min = 0.1;
+    p.mixture.dual_ratio_max = 0.5;
+    p.num_threads = threads;
+    p.grain_size = 16;  // many tasks, so the split between threads varies
+    ParticleFilter pf(p);
+    runWorld(world, pf);
+    finals.push_back(pf.particles());
+  }
+  ASSERT_EQ(finals[0].size(), finals[1].size());
+  int dual = 0;
+  for (size_t i = 0; i < finals[0].size(); ++i) {
+    const Particle& a = finals[0][i];
+    const Particle& b = finals[1][i];
+    ASSERT_EQ(a.pose.x, b.pose.x) << i;
+    ASSERT_EQ(a.pose.y, b.pose.y) << i;
+    ASSERT_EQ(a.pose.theta, b.pose.theta) << i;
+    ASSERT_EQ(a.log_weight, b.log_weight) << i;
+    dual += a.dual;
+    a.map.forEach([&](uint32_t slot, const LandmarkEstimate& e) {
+      ASSERT_EQ(e.mean, b.map.find(slot)->mean) << i << " slot " << slot;
+      ASSERT_EQ(e.covariance, b.map.find(slot)->covariance) << i << " slot " << slot;
+    });
+  }
+  // A different seed gives a different set.
+  FilterParams p = basicParams(1000);
+  p.mixture.dual_ratio_min = 0.1;
+  p.mixture.dual_ratio_max = 0.5;
+  p.seed = 2;
+  ParticleFilter other(p);
+  runWorld(world, other);
+  EXPECT_NE(other.particles()[0].pose.x, finals[0][0].pose.x);
+}
+
+TEST(ParticleFilter, ClosesTheLoopAndBeatsOdometryAfterTheFirstLap) {
+  // Three laps, three odometry noise draws; after the loop closes on the
+  // first landmark, the error is the map's (first-lap drift that particle
+  // selection did not remove), much smaller than odometry's.
+  std::vector<double> slam, odometry;
+  for (uint64_t seed : {7, 8, 9}) {
+    test::SyntheticParams sp;
+    sp.seed = seed;
+    test::SyntheticWorld world(sp);
+    world.build(3.0);
+    const double perimeter = 2 * (sp.width_m + sp.height_m);
+    const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
+    FilterParams p = basicParams(200);
+    p.mixture.dual_ratio_min = 0.1;
+    p.mixture.dual_ratio_max = 0.5;
+    ParticleFilter pf(p);
+    const RunResult r = runWorld(world, pf);
+    EXPECT_EQ(pf.numLandmarks(), world.landmarks().size());
+    for (size_t i = 0; i < r.ticks.size(); ++i) {
+      const size_t t = r.ticks[i];
+      if (t < lap_ticks + 100) continue;
+      slam.push_back(r.errors[i]);
+      odometry.push_back(std::hypot(world.odometry()[t].x - world.truth()[t].x,
+                                    world.odometry()[t].y - world.truth()[t].y));
+      EXPECT_LT(r.errors[i], 0.35) << "seed " << seed << " tick " << t;
+    }
+  }
+  ASSERT_GT(slam.size(), 300u);
+  std::sort(slam.begin(), slam.end());
+  std::sort(odometry.begin(), odometry.end());
+  const double slam_median = slam[slam.size() / 2], odo_median = odometry[odometry.size() / 2];
+  EXPECT_LT(slam_median, 0.15);
+  EXPECT_LT(slam_median, 0.5 * odo_median);
+  RecordProperty("median_error_mm", static_cast<int>(slam_median * 1000));
+  RecordProperty("odometry_median_error_mm", static_cast<int>(odo_median * 1000));
+}

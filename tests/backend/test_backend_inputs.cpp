@@ -1,0 +1,278 @@
+// The back-end's inputs: the pre-filter's verdicts (paper section 5), and the
+// odometry and measurement handling of backend::Backend (duplicated, lost,
+// out-of-order and non-finite odometry; measurements moved to the particles'
+// time; bad measurements counted, never fatal).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "backend/backend.hpp"
+#include "backend/measurement_model.hpp"
+#include "backend/prefilter.hpp"
+
+using namespace vslam;
+using namespace vslam::backend;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+PrefilterInput good() { return {{0.3, -0.1, 0.05}, 1.0, 25, 0.01}; }
+
+BackendParams params(int particles, double sigma) {
+  BackendParams p;
+  p.filter.num_particles = particles;
+  p.filter.motion = {sigma, sigma};
+  p.filter.mixture.dual_ratio_min = 0;
+  p.filter.mixture.dual_ratio_max = 0;
+  return p;
+}
+
+constexpr int64_t kT0 = 1700000000000000LL;
+int64_t at(double s) { return kT0 + static_cast<int64_t>(s * 1e6); }
+
+// A robot driving a circle: cumulative odometry at 50 Hz.
+OdometryReading reading(int64_t seq) {
+  const double t = static_cast<double>(seq) / 50.0;
+  // Arc of radius 2 m at 0.3 m/s.
+  const double a = 0.3 * t / 2.0;
+  return {at(t), seq, {2.0 * std::sin(a), 2.0 * (1 - std::cos(a)), wrapAngle(a)}};
+}
+
+}  // namespace
+
+// --- Pre-filter -----------------------------------------------------------------
+
+TEST(Prefilter, PaperDefaultsAndBoundaries) {
+  const PrefilterParams p;
+  EXPECT_EQ(p.max_proj_err_rms_px, 3.0);
+  EXPECT_EQ(p.min_num_points, 10);
+  EXPECT_EQ(p.max_slope, 0.1);
+  PrefilterInput m = good();
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kAccepted);
+  m.proj_err_rms_px = 3.0;  // the bound passes
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kAccepted);
+  m.proj_err_rms_px = 3.0001;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedProjErr);
+  m = good();
+  m.num_points = 10;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kAccepted);
+  m.num_points = 9;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedNumPoints);
+  m = good();
+  m.slope = 0.1;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kAccepted);
+  m.slope = 0.1001;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedSlope);
+  m.slope = kInf;  // tilted 90 degrees or more
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedSlope);
+}
+
+TEST(Prefilter, FirstFailedTestInThePapersOrder) {
+  PrefilterInput m = good();
+  m.proj_err_rms_px = 5;
+  m.num_points = 3;
+  m.slope = 0.5;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedProjErr);
+  m.proj_err_rms_px = 1;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedNumPoints);
+  m.num_points = 30;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedSlope);
+}
+
+TEST(Prefilter, InvalidInputs) {
+  for (int field = 0; field < 6; ++field) {
+    PrefilterInput m = good();
+    switch (field) {
+      case 0:
+        m.relative.x = kNaN;
+        break;
+      case 1:
+        m.relative.theta = kInf;
+        break;
+      case 2:
+        m.proj_err_rms_px = kNaN;
+        break;
+      case 3:
+        m.slope = kNaN;
+        break;
+      case 4:
+        m.num_points = -1;
+        break;
+      case 5:
+        m.proj_err_rms_px = -0.5;
+        break;
+    }
+    EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedInvalid) << "field " << field;
+  }
+}
+
+TEST(Prefilter, CustomAcceptanceRegion) {
+  PrefilterParams wide;
+  wide.max_proj_err_rms_px = 6;
+  wide.min_num_points = 6;
+  wide.max_slope = 0.3;
+  PrefilterInput m = good();
+  m.proj_err_rms_px = 5;
+  m.num_points = 7;
+  m.slope = 0.2;
+  EXPECT_EQ(prefilter(m), MeasurementStatus::kRejectedProjErr);
+  EXPECT_EQ(prefilter(m, wide), MeasurementStatus::kAccepted);
+  wide.min_num_points = -1;
+  EXPECT_THROW(wide.validate(), std::invalid_argument);
+}
+
+TEST(Prefilter, VerdictsAreCountedByTheBackend) {
+  Backend be(params(10, 0.01));
+  be.addOdometry(reading(0));
+  MeasurementInput m;
+  m.utime = at(0);
+  m.landmark_id = 5;
+  m.relative = {0.1, 0, 0};
+  m.num_points = 30;
+  m.proj_err_rms_px = 1;
+  EXPECT_EQ(be.addMeasurement(m).status, MeasurementStatus::kAccepted);
+  m.proj_err_rms_px = 4;
+  const MeasurementResult r = be.addMeasurement(m);
+  EXPECT_EQ(r.status, MeasurementStatus::kRejectedProjErr);
+  EXPECT_EQ(r.use, MeasurementUse::kRejected);
+  m.proj_err_rms_px = 1;
+  m.slope = kNaN;
+  EXPECT_EQ(be.addMeasurement(m).status, MeasurementStatus::kRejectedInvalid);
+  const BackendCounters& c = be.counters();
+  EXPECT_EQ(c.status[static_cast<int>(MeasurementStatus::kAccepted)], 1);
+  EXPECT_EQ(c.status[static_cast<int>(MeasurementStatus::kRejectedProjErr)], 1);
+  EXPECT_EQ(c.status[static_cast<int>(MeasurementStatus::kRejectedInvalid)], 1);
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kUsed)], 1);
+  EXPECT_EQ(be.filter().numLandmarks(), 1u);  // only the accepted one reached the filter
+}
+
+// --- Odometry -------------------------------------------------------------------
+
+TEST(BackendOdometry, DuplicatedAndOutOfOrderReadingsChangeNothing) {
+  // The same seed, the same readings: once clean, once with every reading
+  // duplicated and some arriving late. The particle sets must be identical.
+  Backend clean(params(50, 0.05));
+  Backend messy(params(50, 0.05));
+  for (int64_t s = 0; s <= 200; ++s) clean.addOdometry(reading(s));
+  int ignored = 0;
+  for (int64_t s = 0; s <= 200; ++s) {
+    messy.addOdometry(reading(s));
+    ignored += messy.addOdometry(reading(s)) == OdometryIncrements::Outcome::kStale;
+    if (s >= 20 && s % 10 == 0) {
+      ignored += messy.addOdometry(reading(s - 3)) == OdometryIncrements::Outcome::kStale;
+    }
+  }
+  EXPECT_EQ(ignored, 201 + 19);
+  EXPECT_EQ(messy.counters().odometry_ignored, 220);
+  for (size_t i = 0; i < 50; ++i) {
+    const Pose2& a = clean.filter().particles()[i].pose;
+    const Pose2& b = messy.filter().particles()[i].pose;
+    EXPECT_EQ(a.x, b.x);
+    EXPECT_EQ(a.y, b.y);
+    EXPECT_EQ(a.theta, b.theta);
+  }
+  // The mean follows the odometry (it started at the map origin).
+  const Pose2 e = clean.filter().estimate().mean;
+  const Pose2 o = reading(200).pose;
+  EXPECT_LT(std::hypot(e.x - o.x, e.y - o.y), 0.05);
+}
+
+TEST(BackendOdometry, LostReadingsLoseNoMotion) {
+  // Noise-free: every second reading lost, and a gap of 30; the pose still
+  // equals the odometry's, since steps are differences of cumulative poses.
+  Backend be(params(5, 0.0));
+  for (int64_t s = 0; s <= 300; s += (s > 100 && s < 130) ? 30 : 2) be.addOdometry(reading(s));
+  be.addOdometry(reading(301));
+  const Pose2 e = be.filter().estimate().mean;
+  const Pose2 o = reading(301).pose;
+  EXPECT_NEAR(e.x, o.x, 1e-9);
+  EXPECT_NEAR(e.y, o.y, 1e-9);
+  EXPECT_NEAR(e.theta, o.theta, 1e-9);
+}
+
+TEST(BackendOdometry, NonFiniteAndImplausibleReadingsAreIgnored) {
+  Backend be(params(5, 0.0));
+  be.addOdometry(reading(0));
+  be.addOdometry(reading(1));
+  OdometryReading bad = reading(2);
+  bad.pose.x = kNaN;
+  EXPECT_EQ(be.addOdometry(bad), OdometryIncrements::Outcome::kInvalid);
+  OdometryReading jump = reading(3);
+  jump.pose.x += 50;  // 50 m in 40 ms: a fault, not motion
+  EXPECT_EQ(be.addOdometry(jump), OdometryIncrements::Outcome::kImplausible);
+  const Pose2 before = be.filter().estimate().mean;
+  EXPECT_LT(std::hypot(before.x - reading(1).pose.x, before.y - reading(1).pose.y), 1e-9);
+  EXPECT_EQ(be.counters().odometry_ignored, 2);
+  // Motion continues from the new reference.
+  OdometryReading next = reading(4);
+  next.pose.x += 50;
+  EXPECT_EQ(be.addOdometry(next), OdometryIncrements::Outcome::kStep);
+  EXPECT_TRUE(be.filter().estimate().mean.isFinite());
+}
+
+// --- Measurements in time ---------------------------------------------------------
+
+TEST(BackendMeasurements, AreMovedToTheParticlesTime) {
+  // Noise-free odometry; a landmark initialised at t = 1 s from the exact
+  // relative pose; at t = 3 s a measurement of the robot as it was at 2 s
+  // arrives. Moved by the odometry between 2 s and 3 s it agrees perfectly;
+  // taken as if it were of now, it would not.
+  const Pose2 phi{2.5, 0.5, 0.3};  // landmark pose in the map = odom frame
+  auto measurementAt = [&](double t) {
+    MeasurementInput m;
+    m.utime = at(t);
+    m.landmark_id = 77;
+    m.relative = predictMeasurement(reading(static_cast<int64_t>(t * 50)).pose, phi);
+    m.proj_err_rms_px = 1;
+    m.num_points = 30;
+    return m;
+  };
+  for (bool aligned : {true, false}) {
+    Backend be(params(20, 0.0));
+    for (int64_t s = 0; s <= 50; ++s) be.addOdometry(reading(s));
+    ASSERT_EQ(be.addMeasurement(measurementAt(1.0)).update.kind, UpdateKind::kInitialized);
+    for (int64_t s = 51; s <= 150; ++s) be.addOdometry(reading(s));
+    MeasurementInput m = measurementAt(2.0);
+    if (!aligned) m.utime = at(3.0);
+    const MeasurementResult r = be.addMeasurement(m);
+    ASSERT_EQ(r.use, MeasurementUse::kUsed);
+    if (aligned) {
+      EXPECT_NEAR(r.update.agreement, 1.0, 1e-6);
+    } else {
+      EXPECT_LT(r.update.agreement, 0.05);  // 30 cm and 9 degrees off
+    }
+  }
+}
+
+TEST(BackendMeasurements, OutsideTheOdometryHistoryOrBeforeAnyOdometry) {
+  BackendParams p = params(5, 0.0);
+  p.max_measurement_age_s = 2.0;
+  p.max_measurement_lead_s = 0.5;
+  Backend be(p);
+  MeasurementInput m;
+  m.landmark_id = 1;
+  m.relative = {0.2, 0, 0};
+  m.proj_err_rms_px = 1;
+  m.num_points = 30;
+  m.utime = at(0);
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kNoOdometry);
+  for (int64_t s = 0; s <= 250; ++s) be.addOdometry(reading(s));  // 0 .. 5 s
+  m.utime = at(1.0);                                              // older than the 2 s kept
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kTooOld);
+  m.utime = at(6.0);  // 1 s ahead of the newest odometry
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kTooNew);
+  m.utime = at(5.2);  // a little ahead: taken as of the newest odometry
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kUsed);
+  m.landmark_id = -3;
+  m.utime = at(4.5);
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kInvalidLandmark);
+  const BackendCounters& c = be.counters();
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kNoOdometry)], 1);
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kTooOld)], 1);
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kTooNew)], 1);
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kInvalidLandmark)], 1);
+  EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kUsed)], 1);
+}

@@ -1,0 +1,299 @@
+// The back-end stage over LCM's in-memory provider: a synthetic run (odometry
+// at 50 Hz, visual measurements from two "cameras", some of them bad) through
+// the `backend` instance of config/vslam.yaml in lock-step replay; checks the
+// pose estimates against the truth, the filtered measurements' verdicts, the
+// map and particle messages, and that bad input is counted, not fatal.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <vslam/health_t.hpp>
+#include <vslam/map_t.hpp>
+#include <vslam/odometry_t.hpp>
+#include <vslam/particle_set_t.hpp>
+#include <vslam/pose_estimate_t.hpp>
+#include <vslam/visual_measurement_t.hpp>
+
+#include "bus/lockstep_replay.hpp"
+#include "stages/backend_stage.hpp"
+#include "stages/builtin_stages.hpp"
+#include "support/test_logs.hpp"
+#include "synthetic_world.hpp"
+
+namespace fs = std::filesystem;
+using namespace vslam;
+
+namespace {
+
+class LogWriter {
+ public:
+  explicit LogWriter(const fs::path& file) : log_(file.string(), "w") {}
+  template <class Msg>
+  void write(int64_t t, const std::string& channel, const Msg& msg) {
+    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
+    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    lcm::LogEvent ev;
+    ev.eventnum = eventnum_++;
+    ev.timestamp = t;
+    ev.channel = channel;
+    ev.datalen = static_cast<int32_t>(buf.size());
+    ev.data = buf.data();
+    ASSERT_EQ(log_.writeEvent(&ev), 0);
+  }
+
+ private:
+  lcm::LogFile log_;
+  int64_t eventnum_ = 0;
+};
+
+template <class Msg>
+Msg decode(const vslam::test::RecordedEvent& e) {
+  Msg m;
+  EXPECT_EQ(m.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+            static_cast<int>(e.data.size()));
+  return m;
+}
+
+}  // namespace
+
+TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
+  const fs::path dir = vslam::test::scratchDir("backend_stage");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  backend::test::SyntheticParams sp;
+  sp.sigma_xy_m = 0.05;
+  sp.sigma_theta_rad = 0.02;
+  backend::test::SyntheticWorld world(sp);
+  world.build(1.5);
+
+  // The log: odometry every tick; each measurement 60 ms after its image
+  // (front-end latency), alternately from two cameras; a few bad messages.
+  std::map<int64_t, std::vector<vslam::visual_measurement_t>> due;  // by publication time
+  int64_t seq[2] = {0, 0};
+  int expected_rejected = 0, expected_invalid = 0;
+  for (size_t k = 0; k < world.measurements().size(); ++k) {
+    const auto& s = world.measurements()[k];
+    vslam::visual_measurement_t m{};
+    m.utime = world.utime(s.tick);
+    const int cam = static_cast<int>(k % 2);
+    m.seq = seq[cam]++;
+    m.camera = cam == 0 ? "forward" : "backward";
+    m.image_seq = static_cast<int64_t>(s.tick / 10);
+    m.landmark_id = s.landmark_id;
+    m.dx = s.y.x;
+    m.dy = s.y.y;
+    m.dtheta = s.y.theta;
+    m.proj_err_rms = 0.8;
+    m.num_points = 25;
+    m.slope = 0.005;
+    m.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
+    if (k % 17 == 5) {  // outside the acceptance region, and wildly wrong
+      m.num_points = 6;
+      m.dx += 3.0;
+      ++expected_rejected;
+    }
+    if (k == 40) {
+      m.dtheta = std::numeric_limits<double>::quiet_NaN();
+      ++expected_invalid;
+    }
+    due[m.utime + 60000].push_back(m);
+  }
+  // The input events in log order.
+  struct Event {
+    int64_t t;
+    bool odometry;
+    vslam::odometry_t o;
+    vslam::visual_measurement_t m;
+  };
+  std::vector<Event> events;
+  auto due_it = due.begin();
+  for (size_t t = 0; t < world.odometry().size(); ++t) {
+    const int64_t now = world.utime(t);
+    for (; due_it != due.end() && due_it->first <= now; ++due_it) {
+      for (const auto& m : due_it->second) events.push_back({due_it->first, false, {}, m});
+    }
+    vslam::odometry_t o{};
+    o.utime = now;
+    o.seq = static_cast<int64_t>(t);
+    o.x = world.odometry()[t].x;
+    o.y = world.odometry()[t].y;
+    o.theta = world.odometry()[t].theta;
+    if (t == 300) o.x = std::numeric_limits<double>::quiet_NaN();  // a broken reading
+    events.push_back({now, true, o, {}});
+    if (t % 100 == 7) events.push_back({now, true, o, {}});  // duplicates
+  }
+  for (; due_it != due.end(); ++due_it) {
+    for (const auto& m : due_it->second) events.push_back({due_it->first, false, {}, m});
+  }
+  {
+    LogWriter log(dir / "in.lcmlog");
+    for (const Event& e : events) {
+      if (e.odometry) {
+        log.write(e.t, "ODOMETRY", e.o);
+      } else {
+        log.write(e.t, "VISUAL_MEASUREMENT", e.m);
+      }
+    }
+  }
+
+  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  options.keep_health = true;
+  bus::LockstepReplay replay(options);
+  replay.addStage("backend", stages::builtinStages().create(stack, "backend", "backend"));
+  const bus::ReplayStats stats = replay.run();
+  EXPECT_FALSE(stats.input_truncated);
+
+  std::vector<vslam::pose_estimate_t> poses;
+  std::vector<vslam::visual_measurement_t> filtered;
+  std::vector<vslam::map_t> maps;
+  std::vector<vslam::particle_set_t> particle_sets;
+  std::map<std::string, double> health;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel == "POSE_ESTIMATE") poses.push_back(decode<vslam::pose_estimate_t>(e));
+    if (e.channel == "VISUAL_MEASUREMENT_FILTERED")
+      filtered.push_back(decode<vslam::visual_measurement_t>(e));
+    if (e.channel == "MAP") maps.push_back(decode<vslam::map_t>(e));
+    if (e.channel == "PARTICLES") particle_sets.push_back(decode<vslam::particle_set_t>(e));
+    if (e.channel == "HEALTH") {
+      const auto h = decode<vslam::health_t>(e);
+      if (h.instance != "backend") continue;
+      for (const auto& m : h.metrics) health[m.name] = m.value;
+    }
+  }
+
+  // The stage is a faithful adapter: the library fed the same events directly
+  // (with the parameters the stage read) ends at exactly the same estimate.
+  {
+    const auto params = stages::BackendStageParams::load(stack.process("backend"), stack.robot);
+    backend::Backend direct(params.backend);
+    for (const Event& e : events) {
+      if (e.odometry) {
+        direct.addOdometry({e.o.utime, e.o.seq, {e.o.x, e.o.y, e.o.theta}});
+      } else {
+        backend::MeasurementInput in;
+        in.utime = e.m.utime;
+        in.landmark_id = e.m.landmark_id;
+        in.relative = {e.m.dx, e.m.dy, e.m.dtheta};
+        in.proj_err_rms_px = e.m.proj_err_rms;
+        in.num_points = e.m.num_points;
+        in.slope = e.m.slope;
+        direct.addMeasurement(in);
+      }
+    }
+    ASSERT_FALSE(poses.empty());
+    const backend::PoseEstimate d = direct.filter().estimate();
+    EXPECT_EQ(poses.back().x, d.mean.x);
+    EXPECT_EQ(poses.back().y, d.mean.y);
+    EXPECT_EQ(poses.back().theta, d.mean.theta);
+    EXPECT_EQ(poses.back().effective_sample_size, d.ess);
+  }
+
+  // One estimate per good odometry reading (duplicates and the NaN one give none).
+  ASSERT_EQ(poses.size(), world.odometry().size() - 1);
+  std::vector<double> err;
+  for (const auto& p : poses) {
+    EXPECT_EQ(p.estimator, "backend");
+    EXPECT_EQ(p.num_particles, 200);
+    EXPECT_GT(p.effective_sample_size, 0);
+    EXPECT_FALSE(p.kidnapped);
+    const size_t t = static_cast<size_t>((p.utime - world.utime(0)) / 20000);
+    ASSERT_LT(t, world.truth().size());
+    err.push_back(std::hypot(p.x - world.truth()[t].x, p.y - world.truth()[t].y));
+    EXPECT_GE(p.covariance[0], 0);
+  }
+  // After the first lap (the loop closed), compared with odometry alone.
+  const double perimeter = 2 * (sp.width_m + sp.height_m);
+  const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
+  std::vector<double> late, odometry_late;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const size_t t = static_cast<size_t>((poses[i].utime - world.utime(0)) / 20000);
+    if (t < lap_ticks + 100) continue;
+    late.push_back(err[i]);
+    odometry_late.push_back(std::hypot(world.odometry()[t].x - world.truth()[t].x,
+                                       world.odometry()[t].y - world.truth()[t].y));
+  }
+  ASSERT_GT(late.size(), 100u);
+  std::sort(late.begin(), late.end());
+  std::sort(odometry_late.begin(), odometry_late.end());
+  RecordProperty("median_error_mm", static_cast<int>(1000 * late[late.size() / 2]));
+  RecordProperty("odometry_median_error_mm",
+                 static_cast<int>(1000 * odometry_late[odometry_late.size() / 2]));
+  // Loose: the accuracy of the filter is the library tests' business; this
+  // catches an adapter that feeds it wrong (e.g. measurements not moved to
+  // the particles' time, frames mixed up), which makes it diverge.
+  EXPECT_LT(late[late.size() / 2], 0.3);
+  EXPECT_LT(late.back(), 0.6);
+
+  // Every measurement comes back once, with its verdict.
+  ASSERT_EQ(filtered.size(), world.measurements().size());
+  int accepted = 0, rejected = 0, invalid = 0;
+  for (const auto& m : filtered) {
+    accepted += m.status == vslam::visual_measurement_t::STATUS_ACCEPTED;
+    rejected += m.status == vslam::visual_measurement_t::STATUS_REJECTED_NUM_POINTS;
+    invalid += m.status == vslam::visual_measurement_t::STATUS_REJECTED_INVALID;
+    if (m.status == vslam::visual_measurement_t::STATUS_ACCEPTED) {
+      EXPECT_GE(m.num_points, 10);
+    }
+  }
+  EXPECT_EQ(rejected, expected_rejected);
+  EXPECT_EQ(invalid, expected_invalid);
+  EXPECT_EQ(accepted + rejected + invalid, static_cast<int>(filtered.size()));
+
+  // Map and particles at their low rates; the map holds every landmark.
+  const double seconds = static_cast<double>(world.odometry().size()) / sp.rate_hz;
+  EXPECT_NEAR(static_cast<double>(maps.size()), seconds * 1.0, 2);
+  EXPECT_NEAR(static_cast<double>(particle_sets.size()), seconds * 2.0, 2);
+  ASSERT_FALSE(maps.empty());
+  const vslam::map_t& last_map = maps.back();
+  EXPECT_EQ(static_cast<size_t>(last_map.num_landmarks), world.landmarks().size());
+  for (const auto& l : last_map.landmarks) {
+    const auto it = std::find_if(world.landmarks().begin(), world.landmarks().end(),
+                                 [&](const auto& t) { return t.id == l.landmark_id; });
+    ASSERT_NE(it, world.landmarks().end());
+    EXPECT_LT(std::hypot(l.x - it->pose.x, l.y - it->pose.y), 0.6) << l.landmark_id;
+    EXPECT_GE(l.num_observations, 1);
+  }
+  ASSERT_FALSE(particle_sets.empty());
+  double wsum = 0;
+  for (const auto& q : particle_sets.back().particles) wsum += q.weight;
+  EXPECT_NEAR(wsum, 1.0, 1e-9);
+  EXPECT_EQ(particle_sets.back().num_particles, 200);
+
+  // Health: counts by reason.
+  EXPECT_EQ(health["measurements_accepted"], accepted);
+  EXPECT_EQ(health["measurements_rejected_num_points"], expected_rejected);
+  EXPECT_EQ(health["measurements_rejected_invalid"], expected_invalid);
+  EXPECT_EQ(health["landmarks"], static_cast<double>(world.landmarks().size()));
+  EXPECT_GE(health["odometry_ignored"], 1);
+  fs::remove_all(dir);
+}
+
+TEST(BackendStage, ConfigurationErrorsNameTheKey) {
+  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
+  const std::string yaml = "robot: " + robot.string() + R"(
+processes:
+  backend:
+    role: backend
+    sigma_translation: 0.05
+    sigma_rotation: 0.05
+    mixture:
+      dual_ratio_min: 0.1
+      dual_ratio_mix: 0.5
+)";
+  const fs::path dir = vslam::test::scratchDir("backend_config");
+  const fs::path file = dir / "vslam.yaml";
+  { std::ofstream(file) << yaml; }
+  try {
+    const auto stack = config::StackConfig::loadFile(file);
+    stages::builtinStages().create(stack, "backend", "backend");
+    ADD_FAILURE() << "a misspelt key was accepted";
+  } catch (const config::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("dual_ratio_mix"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
