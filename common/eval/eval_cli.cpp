@@ -8,6 +8,7 @@
 #include "eval/appearance_eval.hpp"
 #include "eval/cli_args.hpp"
 #include "eval/errors.hpp"
+#include "eval/log_measurements.hpp"
 #include "eval/log_trajectories.hpp"
 #include "eval/plot.hpp"
 #include "eval/report.hpp"
@@ -192,6 +193,53 @@ int runTrajectory(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
+// ---- --measurements -----------------------------------------------------
+
+int runMeasurements(const std::vector<std::string>& args, std::ostream& out) {
+  std::optional<fs::path> log;
+  MeasurementLogOptions options;
+  MeasurementEvalOptions eval;
+  std::optional<fs::path> csv;
+  cli::ArgCursor cur(args);
+  while (!cur.done()) {
+    const std::string opt = cur.next();
+    if (opt == "--ref-channel") {
+      options.ref_channel = cur.value(opt);
+    } else if (opt == "--measurement-channel") {
+      options.measurement_channel = cur.value(opt);
+    } else if (opt == "--max-proj-err") {
+      options.prefilter.max_proj_err_rms_px = cli::parsePositive(opt, cur.value(opt));
+    } else if (opt == "--min-points") {
+      options.prefilter.min_num_points = static_cast<int>(cli::parsePositive(opt, cur.value(opt)));
+    } else if (opt == "--max-slope") {
+      options.prefilter.max_slope = cli::parsePositive(opt, cur.value(opt));
+    } else if (opt == "--rejudge") {
+      options.rejudge = true;
+    } else if (opt == "--max-gap") {
+      eval.max_gap = cli::parsePositive(opt, cur.value(opt));
+    } else if (opt == "--csv") {
+      csv = cur.value(opt);
+    } else if (!opt.empty() && opt[0] == '-') {
+      throw UsageError("unknown option '" + opt + "' for --measurements");
+    } else if (log) {
+      throw UsageError("more than one log given ('" + log->string() + "' and '" + opt + "')");
+    } else {
+      log = opt;
+    }
+  }
+  if (!log) throw UsageError("--measurements needs a LOG");
+  MeasurementLog m = readMeasurementLog(*log, options);
+  MeasurementReport report =
+      evaluateMeasurements(m.reference, std::move(m.samples), m.creations, eval);
+  report.input = log->string();
+  printMeasurementReport(out, report);
+  if (csv) {
+    writeMeasurementCsv(csv->string(), report);
+    log::info("wrote ", csv->string());
+  }
+  return kExitOk;
+}
+
 // ---- modes ----------------------------------------------------------------
 
 struct Mode {
@@ -202,6 +250,7 @@ struct Mode {
 const Mode kModes[] = {
     {"--trajectory", runTrajectory},
     {"--appearance", runAppearanceEval},
+    {"--measurements", runMeasurements},
 };
 
 }  // namespace
@@ -212,6 +261,8 @@ void printEvalUsage(std::ostream& os) {
         "modes (default --trajectory):\n"
         "  --trajectory            compare estimated trajectories with a reference: ATE, RPE,\n"
         "                          TUM copies, plots\n"
+        "  --measurements LOG      accuracy of the visual measurements against ground truth\n"
+        "                          (vSLAM paper Table 1)\n"
         "\n"
         "--trajectory input, one of:\n"
         "  LOG                     an LCM log\n"
@@ -239,6 +290,16 @@ void printEvalUsage(std::ostream& os) {
         "  --plot-dir DIR          write DIR/trajectory.png and DIR/error.png\n"
         "  --plot-size WxH         plot size in pixels (default 1000x800)\n"
         "  --json FILE             write the results as JSON\n"
+        "\n"
+        "--measurements options:\n"
+        "  --measurement-channel CH  vslam.visual_measurement_t (default VISUAL_MEASUREMENT)\n"
+        "  --ref-channel CH        ground truth (default GROUND_TRUTH)\n"
+        "  --max-proj-err PX, --min-points N, --max-slope S\n"
+        "                          pre-filter region for measurements without a verdict\n"
+        "                          (default 3.0, 10, 0.1: the paper's)\n"
+        "  --rejudge               apply that region to judged measurements too\n"
+        "  --max-gap S             max spacing of the ground truth around a stamp (default 0.1)\n"
+        "  --csv FILE              write every measurement with its truth and errors\n"
         "\n"
         "Prints a table to stdout. Exit codes: 0 ok, 1 data problem (unreadable or malformed\n"
         "input, missing channel, no associated poses, damaged log), 2 bad command line.\n"
