@@ -103,6 +103,8 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     } else if (ch == options.map_channel) {
       const auto m = decodeEvent<vslam::appearance_map_t>(e, "vslam.appearance_map_t");
       for (const auto& s : m.states) state_utime.emplace(s.state_id, s.utime);
+      r.map_states = m.num_states;
+      r.map_links = m.num_links;
     }
   });
   if (steps.empty()) {
@@ -219,8 +221,13 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
 
 void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
   out << "appearance SLAM: " << r.input << "\n"
-      << "  steps                 " << r.steps.size() << " (states created " << r.states_created
-      << ")\n"
+      << "  steps                 " << r.steps.size() << " (snapshots that became a new state in "
+      << "some hypothesis: " << r.states_created << ")\n"
+      << "  final map             "
+      << (r.map_states < 0
+              ? std::string("- (no map message)")
+              : std::to_string(r.map_states) + " states, " + std::to_string(r.map_links) + " links")
+      << "\n"
       << "  hypotheses            mean " << fmt(r.mean_hypotheses, 1) << ", max "
       << r.max_hypotheses << "\n"
       << "  revisit hypotheses    " << r.errors.size() << " (new-state hypotheses excluded"
@@ -253,6 +260,8 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
   os << "{\n  \"input\": \"" << r.input << "\",\n"
      << "  \"steps\": " << r.steps.size() << ",\n"
      << "  \"states_created\": " << r.states_created << ",\n"
+     << "  \"map_states\": " << r.map_states << ",\n"
+     << "  \"map_links\": " << r.map_links << ",\n"
      << "  \"mean_hypotheses\": " << jsonNumber(r.mean_hypotheses) << ",\n"
      << "  \"max_hypotheses\": " << r.max_hypotheses << ",\n"
      << "  \"revisit_hypotheses\": " << r.errors.size() << ",\n"

@@ -66,7 +66,9 @@ struct AppearanceReport {
   std::vector<AppearanceHypothesisError> errors;  // every revisit hypothesis of every step
   std::vector<AppearanceRelocalization> relocalizations;
   int64_t unknown_states = 0;  // revisit hypotheses whose state has no ground truth
-  int64_t states_created = 0;  // distinct new-state ids seen
+  int64_t states_created = 0;  // distinct new-state ids seen (one per snapshot that had one)
+  int64_t map_states = -1;     // states in the last map message; -1 if none
+  int64_t map_links = -1;
   int max_hypotheses = 0;
   double mean_hypotheses = 0;
   // Over every revisit hypothesis of every step.

@@ -136,6 +136,26 @@ void AppearanceStage::onOdometry(const vslam::odometry_t& m) {
 }
 
 bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::image_t& msg) {
+  if (msg.encoding == vslam::image_t::ENCODING_JPEG) {
+    gray_ = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
+    if (gray_.empty() || gray_.cols != msg.width || gray_.rows != msg.height) {
+      ctx_->bus.reportMalformed(camera.image_channel, "JPEG does not decode to the announced size");
+      return false;
+    }
+    return true;
+  }
+  const bool gray = msg.encoding == vslam::image_t::ENCODING_GRAY8;
+  const cv::Mat view(msg.height, msg.width, gray ? CV_8UC1 : CV_8UC3,
+                     const_cast<uint8_t*>(msg.data.data()), static_cast<size_t>(msg.row_stride));
+  if (gray) {
+    view.copyTo(gray_);
+  } else {
+    cv::cvtColor(view, gray_, cv::COLOR_BGR2GRAY);
+  }
+  return true;
+}
+
+bool AppearanceStage::validImage(const config::CameraConfig& camera, const vslam::image_t& msg) {
   const std::string& channel = camera.image_channel;
   if (msg.width != camera.width || msg.height != camera.height) {
     ctx_->bus.reportMalformed(channel, "image " + std::to_string(msg.width) + "x" +
@@ -153,23 +173,10 @@ bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::im
         ctx_->bus.reportMalformed(channel, "image data shorter than height x row_stride");
         return false;
       }
-      const cv::Mat view(msg.height, msg.width, channels == 1 ? CV_8UC1 : CV_8UC3,
-                         const_cast<uint8_t*>(msg.data.data()),
-                         static_cast<size_t>(msg.row_stride));
-      if (channels == 1) {
-        view.copyTo(gray_);
-      } else {
-        cv::cvtColor(view, gray_, cv::COLOR_BGR2GRAY);
-      }
       return true;
     }
     case vslam::image_t::ENCODING_JPEG:
-      gray_ = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
-      if (gray_.empty() || gray_.cols != msg.width || gray_.rows != msg.height) {
-        ctx_->bus.reportMalformed(channel, "JPEG does not decode to the announced size");
-        return false;
-      }
-      return true;
+      return true;  // checked when decoded
     default:
       ctx_->bus.reportMalformed(channel, "unknown encoding " + std::to_string(msg.encoding));
       return false;
@@ -177,6 +184,9 @@ bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::im
 }
 
 void AppearanceStage::onImage(size_t camera, const vslam::image_t& msg) {
+  // Every frame is checked (a bad camera shows in health even between
+  // snapshots); only the first frame after an action is used.
+  if (!validImage(params_.cameras[camera], msg)) return;
   if (!pending_ || msg.utime < pending_->utime) return;
   if (pending_->histograms.empty()) {
     pending_->histograms.assign(params_.cameras.size(), appearance::Histogram{});

@@ -71,7 +71,8 @@ class AppearanceStage final : public bus::Stage {
 
   void onOdometry(const vslam::odometry_t& msg);
   void onImage(size_t camera, const vslam::image_t& msg);
-  bool toGray(const config::CameraConfig& camera, const vslam::image_t& msg);
+  bool validImage(const config::CameraConfig& camera, const vslam::image_t& msg);
+  bool toGray(const config::CameraConfig& camera, const vslam::image_t& msg);  // a valid image
   void takeSnapshot();
   void publishStep(const appearance::StepResult& r, Utime utime, double seconds);
   void publishMap(Utime now);

@@ -9,7 +9,14 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <opencv2/core.hpp>
+#include <vslam/appearance_hypotheses_t.hpp>
 #include <vslam/appearance_map_t.hpp>
+#include <vslam/health_t.hpp>
+#include <vslam/image_t.hpp>
+#include <vslam/odometry_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
 #include "eval/appearance_eval.hpp"
@@ -20,27 +27,68 @@
 namespace fs = std::filesystem;
 using namespace vslam;
 
-TEST(AppearanceStage, RelocalizesOnTheSecondLapOfTheLoop) {
-  const fs::path dir = vslam::test::scratchDir("appearance_stage");
-  const fs::path source(VSLAM_SOURCE_DIR);
-  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
-  sim::Scenario scenario = sim::Scenario::loadByName("loop", source / "config/scenarios");
-  scenario.motion.speed_mps = 1.0;
-  scenario.motion.turn_rate_rps = M_PI / 2;
-  scenario.cameras.motion_blur = false;
-  {
-    sim::Simulator simulator(scenario, stack.robot, 1767225600LL * kMicrosPerSecond);
-    sim::LogFileSink sink((dir / "sim.lcmlog").string());
-    while (simulator.step(sink)) {
-    }
-  }
+namespace {
+
+const fs::path kSource(VSLAM_SOURCE_DIR);
+
+// Runs the `appearance` instance of `stack` over `input` into `output`.
+void replayAppearance(const config::StackConfig& stack, const fs::path& input,
+                      const fs::path& output, bool keep_health = false) {
   bus::ReplayOptions options;
-  options.input = dir / "sim.lcmlog";
-  options.output = dir / "run.lcmlog";
+  options.input = input;
+  options.output = output;
+  options.keep_health = keep_health;
   options.input_channels = "ODOMETRY|GROUND_TRUTH|CAM_.*_IMAGE";
   bus::LockstepReplay replay(options);
   replay.addStage("appearance", stages::builtinStages().create(stack, "appearance"));
   replay.run();
+}
+
+// config/vslam.yaml with the appearance map kept in `map`.
+config::StackConfig configWithMap(const fs::path& dir, const fs::path& map) {
+  std::ifstream in(kSource / "config/vslam.yaml");
+  std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = yaml.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) yaml.replace(at, from.size(), to);
+  };
+  replace("robot: robot/", "robot: " + (kSource / "config/robot").string() + "/");
+  replace("map_file: \"\"",
+          "map_file: " + map.string() + "\n    map_load: true\n    map_save: true");
+  std::ofstream(dir / "vslam.yaml") << yaml;
+  return config::StackConfig::loadFile(dir / "vslam.yaml");
+}
+
+class AppearanceStageTest : public ::testing::Test {
+ protected:
+  // The loop scenario, simulated once for the suite.
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(vslam::test::scratchDir("appearance_stage"));
+    const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+    sim::Scenario scenario = sim::Scenario::loadByName("loop", kSource / "config/scenarios");
+    scenario.motion.speed_mps = 1.0;
+    scenario.motion.turn_rate_rps = M_PI / 2;
+    scenario.cameras.motion_blur = false;
+    sim::Simulator simulator(scenario, stack.robot, 1767225600LL * kMicrosPerSecond);
+    sim::LogFileSink sink((*dir_ / "sim.lcmlog").string());
+    while (simulator.step(sink)) {
+    }
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+  }
+  static fs::path* dir_;
+};
+fs::path* AppearanceStageTest::dir_ = nullptr;
+
+}  // namespace
+
+TEST_F(AppearanceStageTest, RelocalizesOnTheSecondLapOfTheLoop) {
+  const fs::path dir = *dir_;
+  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  replayAppearance(stack, dir / "sim.lcmlog", dir / "run.lcmlog");
 
   const eval::AppearanceReport r = eval::evaluateAppearanceLog(dir / "run.lcmlog", {});
   // 64 actions a lap, two laps, plus the first snapshot.
@@ -78,5 +126,101 @@ TEST(AppearanceStage, RelocalizesOnTheSecondLapOfTheLoop) {
   EXPECT_GE(last_map.num_states, lap - 4);
   EXPECT_LE(last_map.num_states, lap + 20) << "the second lap made a second map";
   EXPECT_GE(last_map.num_links, last_map.num_states - 1);
+}
+
+// Map persistence through the stage: a first run saves its map at shutdown;
+// a second run over the same drive loads it and is in a known map from its
+// first snapshot on (global localisation among the map's states), adding
+// almost no states.
+TEST_F(AppearanceStageTest, SecondRunStartsInTheSavedMap) {
+  const fs::path dir = *dir_ / "map";
+  fs::create_directories(dir);
+  const auto stack = configWithMap(dir, dir / "appearance.map");
+  replayAppearance(stack, *dir_ / "sim.lcmlog", dir / "first.lcmlog");
+  ASSERT_TRUE(fs::exists(dir / "appearance.map"));
+  const auto first = eval::evaluateAppearanceLog(dir / "first.lcmlog", {});
+
+  replayAppearance(stack, *dir_ / "sim.lcmlog", dir / "second.lcmlog");
+  const auto second = eval::evaluateAppearanceLog(dir / "second.lcmlog", {});
+  ASSERT_FALSE(second.steps.empty());
+  EXPECT_TRUE(second.steps.front().best_is_revisit) << "the first snapshot was not recognised";
+  ASSERT_FALSE(second.relocalizations.empty());
+  EXPECT_EQ(second.relocalizations.front().step, 0);
+  // The first run's states have no ground truth in the second run's log
+  // (their snapshots were taken in the first), so judge by the map: most
+  // steps are in it, and few states are added.
+  int64_t best_revisit = 0;
+  for (const auto& row : second.steps) best_revisit += row.best_is_revisit;
+  EXPECT_GT(best_revisit, static_cast<int64_t>(second.steps.size()) * 3 / 4);
+  ASSERT_GT(first.map_states, 0);
+  EXPECT_LE(second.map_states, first.map_states + 6) << "the second run re-mapped the loop";
+}
+
+// Bad input: images of the wrong size or encoding, truncated image data and
+// non-finite odometry are counted as malformed (health) and skipped; the
+// stage goes on taking snapshots.
+TEST(AppearanceStage, SkipsBadInputAndKeepsRunning) {
+  const fs::path dir = vslam::test::scratchDir("appearance_bad_input");
+  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  {
+    lcm::LogFile log((dir / "bad.lcmlog").string(), "w");
+    int64_t eventnum = 0;
+    const auto write = [&](int64_t t, const std::string& channel, const auto& msg) {
+      std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
+      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      lcm::LogEvent ev;
+      ev.eventnum = eventnum++;
+      ev.timestamp = t;
+      ev.channel = channel;
+      ev.datalen = static_cast<int32_t>(buf.size());
+      ev.data = buf.data();
+      ASSERT_EQ(log.writeEvent(&ev), 0);
+    };
+    cv::Mat texture(240, 320, CV_8UC1);
+    cv::RNG rng(3);
+    const int64_t t0 = 1767225600LL * kMicrosPerSecond;
+    double x = 0;
+    int64_t seq = 0;
+    for (int i = 0; i < 50 * 20; ++i) {  // 20 s: drive 1 m in 3.3 s, stand 1.7 s
+      const int64_t t = t0 + i * 20000;
+      const double phase = std::fmod(0.02 * i, 5.0);
+      if (phase < 10.0 / 3.0) x += 0.3 * 0.02;
+      vslam::odometry_t o{};
+      o.utime = t;
+      o.seq = seq++;
+      o.x = i == 500 ? NAN : x;  // one non-finite reading
+      write(t, "ODOMETRY", o);
+      if (i % 5 != 0) continue;
+      for (const char* channel : {"CAM_FORWARD_IMAGE", "CAM_BACKWARD_IMAGE"}) {
+        rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
+        vslam::image_t img{};
+        img.utime = t;
+        img.width = 320;
+        img.height = 240;
+        img.row_stride = 320;
+        img.encoding = vslam::image_t::ENCODING_GRAY8;
+        img.data.assign(texture.data, texture.data + texture.total());
+        const int k = i / 5;
+        if (k == 40) img.width = 160;       // wrong size
+        if (k == 41) img.data.resize(100);  // truncated
+        if (k == 42) img.encoding = 99;     // unknown encoding
+        img.data_size = static_cast<int32_t>(img.data.size());
+        write(t, channel, img);
+      }
+    }
+  }
+  replayAppearance(stack, dir / "bad.lcmlog", dir / "run.lcmlog", true);
+  int64_t steps = 0, malformed = 0;
+  for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
+    if (e.channel == "APPEARANCE_HYPOTHESES") ++steps;
+    if (e.channel == "HEALTH") {
+      vslam::health_t h;
+      ASSERT_GT(h.decode(e.data.data(), 0, static_cast<int>(e.data.size())), 0);
+      if (h.instance == "appearance") malformed = std::max(malformed, h.messages_malformed);
+    }
+  }
+  // 1 m moves every 5 s over 20 s: the first snapshot and 3 or 4 actions.
+  EXPECT_GE(steps, 4);
+  EXPECT_EQ(malformed, 1 + 3 * 2) << "NaN odometry, 3 bad frames of 2 cameras";
   fs::remove_all(dir);
 }
