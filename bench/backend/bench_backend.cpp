@@ -66,7 +66,8 @@ struct Setup {
     y.x += 0.03 * rng.normal();
     y.y += 0.03 * rng.normal();
     y.theta += 0.01 * rng.normal();
-    const UpdateReport r = pf->update({1000000000LL + static_cast<int64_t>(k), y, {}});
+    const UpdateReport r =
+        pf->update({1000000000LL + static_cast<int64_t>(k), y, Eigen::Matrix3d::Zero()});
     resamplings += r.resampled;
     ++updates;
   }
