@@ -267,10 +267,10 @@ class Loader {
  private:
   // --- Textures and materials ---
   int texture(const Yn& where, const std::string& ref, int rotate_deg,
-              const std::optional<Yn>& crop = std::nullopt) {
+              const std::optional<Yn>& crop = std::nullopt, bool mirror = false) {
     std::vector<double> rect;
     if (crop) rect = crop->numbers(4);
-    std::string key = ref + "@" + std::to_string(rotate_deg);
+    std::string key = ref + "@" + std::to_string(rotate_deg) + (mirror ? "|mirror" : "");
     for (double v : rect) key += "," + fmt(v);
     if (auto it = texture_index_.find(key); it != texture_index_.end()) return it->second;
     cv::Mat img;
@@ -292,6 +292,14 @@ class Loader {
     if (rotate_deg == 90) cv::rotate(img, img, cv::ROTATE_90_CLOCKWISE);
     if (rotate_deg == 180) cv::rotate(img, img, cv::ROTATE_180);
     if (rotate_deg == 270) cv::rotate(img, img, cv::ROTATE_90_COUNTERCLOCKWISE);
+    if (mirror) {
+      // Every other copy left-right mirrored (GL_MIRRORED_REPEAT along the
+      // width): the pattern repeats only every two copies, and SIFT, which
+      // is not mirror-invariant, does not match a copy with its neighbours.
+      cv::Mat flipped;
+      cv::flip(img, flipped, 1);
+      cv::hconcat(img, flipped, img);
+    }
     world_.textures.push_back(img);
     const int index = static_cast<int>(world_.textures.size()) - 1;
     texture_index_[key] = index;
@@ -299,7 +307,7 @@ class Loader {
   }
 
   Material inlineMaterial(const Yn& n) {
-    n.allowKeys({"texture", "scale_m", "rotate_deg", "crop", "albedo", "gain"});
+    n.allowKeys({"texture", "scale_m", "rotate_deg", "crop", "mirror", "albedo", "gain"});
     Material m;
     if (auto g = n.optional("gain")) m.gain = static_cast<float>(g->number(0.0, 10.0));
     if (n.has("texture")) {
@@ -313,8 +321,10 @@ class Loader {
         if (v != 0 && v != 90 && v != 180 && v != 270) r->fail("expected 0, 90, 180 or 270");
         rotate = static_cast<int>(v);
       }
-      m.texture = texture(ref, ref.text(), rotate, n.optional("crop"));
-      m.scale_m = n.child("scale_m").positive();
+      bool mirror = false;
+      if (auto mr = n.optional("mirror")) mirror = mr->boolean();
+      m.texture = texture(ref, ref.text(), rotate, n.optional("crop"), mirror);
+      m.scale_m = n.child("scale_m").positive() * (mirror ? 2.0 : 1.0);  // of the doubled image
       const cv::Mat& img = world_.textures[static_cast<size_t>(m.texture)];
       m.height_m = m.scale_m * img.rows / img.cols;
     } else if (n.has("albedo")) {
@@ -322,6 +332,7 @@ class Loader {
       if (n.has("scale_m")) n.child("scale_m").fail("scale_m needs a texture");
       if (n.has("rotate_deg")) n.child("rotate_deg").fail("rotate_deg needs a texture");
       if (n.has("crop")) n.child("crop").fail("crop needs a texture");
+      if (n.has("mirror")) n.child("mirror").fail("mirror needs a texture");
     } else {
       n.fail("a material needs 'texture' (with 'scale_m') or 'albedo'");
     }

@@ -209,6 +209,32 @@ TEST(WorldFile, TablesFloatingBoxesAndCrops) {
                   "boxes[0].material.crop", 21, "inside the 512 x 512 image");
 }
 
+// mirror: the texture becomes [image | image mirrored left-right] and the
+// surface's scale covers both copies, so the size of one copy is unchanged.
+TEST(WorldFile, MirroredRepeatDoublesThePeriod) {
+  const World plain = World::loadString(kTwoRooms, "t.yaml");
+  const World mirrored = World::loadString(
+      replaced(kTwoRooms, "rotate_deg: 90}", "rotate_deg: 90, mirror: true}"), "t.yaml");
+  ASSERT_EQ(mirrored.textures.size(), 1u);
+  const cv::Mat& one = plain.textures[0];
+  const cv::Mat& two = mirrored.textures[0];
+  ASSERT_EQ(two.cols, 2 * one.cols);
+  ASSERT_EQ(two.rows, one.rows);
+  cv::Mat flipped;
+  cv::flip(one, flipped, 1);
+  EXPECT_EQ(cv::norm(two.colRange(0, one.cols), one, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(two.colRange(one.cols, two.cols), flipped, cv::NORM_INF), 0.0);
+  double plain_scale = 0, mirrored_scale = 0;
+  for (const Surface& s : plain.surfaces)
+    if (s.texture == 0) plain_scale = s.texture_scale_m;
+  for (const Surface& s : mirrored.surfaces)
+    if (s.texture == 0) mirrored_scale = s.texture_scale_m;
+  EXPECT_DOUBLE_EQ(plain_scale, 1.2);
+  EXPECT_DOUBLE_EQ(mirrored_scale, 2.4);
+  expectLoadError(replaced(kTwoRooms, "paint: {albedo: 0.7}", "paint: {albedo: 0.7, mirror: true}"),
+                  "materials.paint.mirror", 2, "mirror needs a texture");
+}
+
 TEST(WorldFile, TextureReferences) {
   EXPECT_EQ(resolveTexturePath("skimage:brick.png", "/x"),
             fs::path("/usr/lib/python3/dist-packages/skimage/data/brick.png"));
