@@ -146,7 +146,25 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     return true;
   };
 
-  std::vector<double> pos, heading, best_pos, step_seconds;
+  // True poses of the states, for the nearest-state floor.
+  std::vector<std::pair<int64_t, TruePose>> state_truth;
+  for (const auto& [id, utime] : state_utime) {
+    TruePose p;
+    if (truthAt(truth, utime, &p)) state_truth.emplace_back(utime, p);
+  }
+  auto nearestState = [&](int64_t utime) {
+    TruePose now;
+    if (!truthAt(truth, utime, &now)) return kNaN;
+    double best = kNaN;
+    for (const auto& [t, p] : state_truth) {
+      if (t >= utime || std::abs(wrapAngle(p.theta - now.theta)) > M_PI / 4) continue;
+      const double d = std::hypot(p.x - now.x, p.y - now.y);
+      if (!(d >= best)) best = d;
+    }
+    return best;
+  };
+
+  std::vector<double> pos, heading, best_pos, step_seconds, nearest;
   int64_t within = 0;
   double hyp_sum = 0;
   for (const auto& s : steps) {
@@ -177,6 +195,10 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
       if (h.state_id == s.best_state_id && i == 0) row.best_position_error = e.position();
     }
     row.best_is_revisit = !s.hypotheses.empty() && !s.hypotheses.front().is_new_state;
+    row.nearest_state_distance = nearestState(s.utime);
+    if (!step_pos.empty() && std::isfinite(row.nearest_state_distance)) {
+      for (size_t k = 0; k < step_pos.size(); ++k) nearest.push_back(row.nearest_state_distance);
+    }
     row.mean_position_error = mean(step_pos);
     if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
       ++r.steps_best_revisit;
@@ -195,6 +217,7 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
   r.fraction_within_action =
       pos.empty() ? kNaN : static_cast<double>(within) / static_cast<double>(pos.size());
   r.mean_best_position_error = mean(best_pos);
+  r.mean_nearest_state_distance = mean(nearest);
   r.mean_step_seconds = mean(step_seconds);
   r.max_step_seconds = *std::max_element(step_seconds.begin(), step_seconds.end());
 
@@ -237,6 +260,9 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
       << fmt(r.median_position_error) << " m, max " << fmt(r.max_position_error) << " m; "
       << fmt(100.0 * r.fraction_within_action, 1) << " % within "
       << fmt(r.options.action_length_m, 2) << " m (one action)\n"
+      << "  nearest state         " << fmt(r.mean_nearest_state_distance)
+      << " m on average: the floor of the position error (the robot's true distance to the\n"
+      << "                        nearest earlier state, weighted as the hypotheses above)\n"
       << "  heading error         mean |e| " << fmt(radToDeg(r.mean_abs_heading_error), 2)
       << " deg\n"
       << "  best is a revisit     " << r.steps_best_revisit << " steps, its mean position error "
@@ -272,6 +298,8 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
      << "  \"fraction_within_action\": " << jsonNumber(r.fraction_within_action) << ",\n"
      << "  \"steps_best_revisit\": " << r.steps_best_revisit << ",\n"
      << "  \"mean_best_position_error_m\": " << jsonNumber(r.mean_best_position_error) << ",\n"
+     << "  \"mean_nearest_state_distance_m\": " << jsonNumber(r.mean_nearest_state_distance)
+     << ",\n"
      << "  \"mean_step_seconds\": " << jsonNumber(r.mean_step_seconds) << ",\n"
      << "  \"relocalizations\": [";
   for (size_t i = 0; i < r.relocalizations.size(); ++i) {

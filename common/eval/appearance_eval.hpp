@@ -44,8 +44,9 @@ struct AppearanceStepRow {
   int hypotheses = 0;
   int revisits = 0;  // hypotheses in previously visited states
   bool best_is_revisit = false;
-  double mean_position_error = 0;  // over revisits; NaN if none
-  double best_position_error = 0;  // of the most believed, if a revisit; else NaN
+  double mean_position_error = 0;     // over revisits; NaN if none
+  double best_position_error = 0;     // of the most believed, if a revisit; else NaN
+  double nearest_state_distance = 0;  // robot to the nearest earlier state; NaN if none
 };
 
 struct AppearanceRelocalization {
@@ -78,6 +79,12 @@ struct AppearanceReport {
   // Steps whose most believed hypothesis is a revisit, and its error there.
   int64_t steps_best_revisit = 0;
   double mean_best_position_error = 0;
+  // The floor of the position error: on the same steps as the revisit
+  // hypotheses, the true distance from the robot to the nearest state made
+  // before (heading within 45 degrees), i.e. what the best possible
+  // hypothesis would score. A second lap driven beside the first cannot do
+  // better than this.
+  double mean_nearest_state_distance = 0;
   double mean_step_seconds = 0, max_step_seconds = 0;  // the process's own timing
 };
 

@@ -249,7 +249,8 @@ void AppearanceStage::publishStep(const appearance::StepResult& r, Utime utime, 
   if (r.lost) {
     event = vslam::appearance_event_t::EVENT_LOST;
   } else if (!best.is_new_state && (!last_best_ || last_best_->is_new_state ||
-                                    best.parent_id != last_best_->hypothesis_id)) {
+                                    (best.parent_id != last_best_->hypothesis_id &&
+                                     best.state_id != last_best_->state_id))) {
     event = vslam::appearance_event_t::EVENT_RELOCALIZED;
     ++relocalizations_;
   } else if (best.is_new_state && last_best_ && !last_best_->is_new_state) {

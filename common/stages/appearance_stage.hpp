@@ -7,8 +7,11 @@
 //   - after each action takes a snapshot: the next image of every camera,
 //     reduced to a gradient-orientation histogram,
 //   - runs one step of the path-hypothesis tree, and publishes the
-//     hypotheses (APPEARANCE_HYPOTHESES, every step), re-localisation events
-//     (APPEARANCE_EVENT) and the map of the most believed hypothesis
+//     hypotheses (APPEARANCE_HYPOTHESES, every step), events
+//     (APPEARANCE_EVENT: EVENT_RELOCALIZED when the most believed hypothesis
+//     becomes a revisit after a new state, or jumps to another branch and
+//     another state; EVENT_NEW_STATE when it becomes a new state after a
+//     revisit; EVENT_LOST) and the map of the most believed hypothesis
 //     (APPEARANCE_MAP, every map_period_s and after a step that follows a
 //     load);
 //   - loads the map from map_file at start and saves it there at shutdown
