@@ -4,6 +4,7 @@
 #include "stages/backend_stage.hpp"
 #include "stages/deadreckon_stage.hpp"
 #include "stages/frontend_stage.hpp"
+#include "stages/landmark_db_stage.hpp"
 
 namespace vslam::stages {
 
@@ -14,6 +15,7 @@ const bus::StageRegistry& builtinStages() {
     registerFrontend(r);
     registerBackend(r);
     registerAppearance(r);
+    registerLandmarkDb(r);
     return r;
   }();
   return registry;

@@ -1,8 +1,10 @@
 #include "stages/frontend_stage.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vslam/landmark_request_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "util/log.hpp"
@@ -12,6 +14,33 @@ namespace {
 
 constexpr int64_t kIdsPerCamera = 1000000000;
 constexpr Utime kMaxOdometryGap = 200000;  // us: no pose for a frame farther from any reading
+constexpr Utime kMinRequestInterval = kMicrosPerSecond;  // between two replica sync requests
+
+frontend::LandmarkModel modelFromMessage(const vslam::landmark_t& l, int64_t id) {
+  frontend::LandmarkModel model;
+  model.id = id;
+  model.descriptors.create(l.num_points, 128, CV_32F);
+  for (int i = 0; i < l.num_points; ++i) {
+    const size_t k = static_cast<size_t>(i);
+    model.points_robot.emplace_back(l.points[k][0], l.points[k][1], l.points[k][2]);
+    for (int c = 0; c < 128; ++c) {
+      model.descriptors.at<float>(i, c) =
+          static_cast<float>(l.descriptors[k][static_cast<size_t>(c)]);
+    }
+  }
+  return model;
+}
+
+// "" if the message's landmark can go into the index, else why not.
+std::string checkLandmark(const vslam::landmark_t& l) {
+  if (l.num_points <= 0 || l.descriptor_size != 128) return "without SIFT points";
+  for (const auto& p : l.points) {
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      return "with non-finite points";
+    }
+  }
+  return "";
+}
 
 double msSince(Utime start) { return 1e-3 * static_cast<double>(monotonicUtime() - start); }
 
@@ -33,6 +62,11 @@ FrontendParams FrontendParams::load(const config::ConfigNode& node,
   p.odometry_channel = robot.channels.odometry;
   p.measurement_channel = robot.channels.visual_measurement;
   p.proposal_channel = robot.channels.landmark_proposal;
+  p.update_channel = robot.channels.landmark_update;
+  p.summary_channel = robot.channels.landmark_summary;
+  p.request_channel = robot.channels.landmark_request;
+  p.use_landmark_db = node.getEnum("landmark_db", {"required", "none"}) == "required";
+  p.proposal_timeout_s = node.getDouble("proposal_timeout_s", 2.0, config::InRange{0.1, 600});
   p.creation_baseline_m = node.getDouble("creation_baseline_m", 0.20, config::InRange{0.02, 2.0});
   p.max_measurements_per_frame =
       static_cast<int>(node.getInt("max_measurements_per_frame", 4, config::InRange{1, 100}));
@@ -60,8 +94,16 @@ void FrontendStage::start(bus::StageContext& ctx) {
       ctx.mode, [this](vslam::image_t& img) { process(img); });
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
-  ctx.bus.subscribe<vslam::landmark_update_t>(
-      params_.proposal_channel, [this](const vslam::landmark_update_t& m) { onProposal(m); });
+  if (params_.use_landmark_db) {
+    // A snapshot answer can be every landmark in memory at once.
+    ctx.bus.subscribe<vslam::landmark_update_t>(
+        params_.update_channel, [this](const vslam::landmark_update_t& m) { onUpdate(m); }, 2000);
+    ctx.bus.subscribe<vslam::landmark_summary_t>(
+        params_.summary_channel, [this](const vslam::landmark_summary_t& m) { onSummary(m); }, 5);
+  } else {
+    ctx.bus.subscribe<vslam::landmark_update_t>(
+        params_.proposal_channel, [this](const vslam::landmark_update_t& m) { onProposal(m); });
+  }
   // A small queue: frames wait in the worker's one-slot mailbox, not in LCM.
   ctx.bus.subscribe<vslam::image_t>(
       params_.camera.image_channel, [this](const vslam::image_t& m) { onImage(m); }, 2);
@@ -117,25 +159,153 @@ void FrontendStage::onImage(const vslam::image_t& msg) {
 void FrontendStage::onProposal(const vslam::landmark_update_t& m) {
   const vslam::landmark_t& l = m.landmark;
   if (m.op != vslam::landmark_update_t::OP_PROPOSED || l.camera == params_.camera.name) return;
-  if (l.num_points <= 0 || l.descriptor_size != 128) {
+  const std::string why = checkLandmark(l);
+  if (!why.empty()) {
     ctx_->bus.reportMalformed(params_.proposal_channel,
-                              "landmark " + std::to_string(l.landmark_id) + " without SIFT points");
+                              "landmark " + std::to_string(l.landmark_id) + " " + why);
     return;
   }
-  frontend::LandmarkModel model;
-  model.id = l.landmark_id;
-  model.descriptors.create(l.num_points, 128, CV_32F);
-  for (int i = 0; i < l.num_points; ++i) {
-    model.points_robot.emplace_back(l.points[i][0], l.points[i][1], l.points[i][2]);
-    for (int c = 0; c < 128; ++c) {
-      model.descriptors.at<float>(i, c) =
-          static_cast<float>(l.descriptors[i][static_cast<size_t>(c)]);
-    }
-  }
   std::lock_guard<std::mutex> lock(index_mutex_);
-  index_.add(std::move(model));
+  index_.add(modelFromMessage(l, l.landmark_id));
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   ++stats_.foreign_landmarks;
+}
+
+void FrontendStage::addToReplica(const vslam::landmark_t& l, const std::string& channel) {
+  const std::string why = checkLandmark(l);
+  if (l.landmark_id <= 0 || !why.empty()) {
+    ctx_->bus.reportMalformed(channel, "landmark " + std::to_string(l.landmark_id) + " " +
+                                           (why.empty() ? "without a global id" : why));
+    return;
+  }
+  index_.add(modelFromMessage(l, l.landmark_id));
+  replica_.insert(l.landmark_id);
+  std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+  ++stats_.replica_added;
+}
+
+void FrontendStage::adoptDatabase(const std::string& database_id) {
+  if (database_id == database_id_) return;
+  if (!database_id_.empty()) {
+    log::warn("landmark database changed from ", database_id_, " to ", database_id, ": replica of ",
+              replica_.size(), " landmarks dropped");
+  }
+  for (int64_t id : replica_) index_.remove(id);
+  std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+  stats_.replica_removed += static_cast<int64_t>(replica_.size());
+  replica_.clear();
+  database_id_ = database_id;
+  revision_ = -1;
+}
+
+void FrontendStage::requestSync(int64_t since_revision, std::vector<int64_t> ids) {
+  const Utime now = ctx_->clock.now();
+  if (last_request_ != 0 && now - last_request_ < kMinRequestInterval) return;
+  last_request_ = now;
+  vslam::landmark_request_t r{};
+  r.utime = now;
+  r.requester = ctx_->instance;
+  r.database_id = database_id_;
+  r.since_revision = since_revision;
+  r.landmark_ids = std::move(ids);
+  r.num_ids = static_cast<int32_t>(r.landmark_ids.size());
+  ctx_->bus.publish(params_.request_channel, r);
+  std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+  ++stats_.sync_requests;
+}
+
+void FrontendStage::onUpdate(const vslam::landmark_update_t& m) {
+  using U = vslam::landmark_update_t;
+  const vslam::landmark_t& l = m.landmark;
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  if (m.database_id.empty()) {
+    ctx_->bus.reportMalformed(params_.update_channel, "update without a database_id");
+    return;
+  }
+  adoptDatabase(m.database_id);
+  // The answer to one of this front-end's proposals.
+  const bool mine = l.camera == params_.camera.name && pending_.count(l.proposal_id) > 0;
+  if (mine && (m.op == U::OP_CREATED || m.op == U::OP_SNAPSHOT || m.op == U::OP_REJECTED)) {
+    index_.remove(-l.proposal_id);
+    pending_.erase(l.proposal_id);
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    ++(m.op == U::OP_REJECTED ? stats_.rejected : stats_.acknowledged);
+  }
+  if (m.op == U::OP_REJECTED) return;
+  if (m.op == U::OP_SNAPSHOT) {
+    // Answers to other requesters are ignored (unless they acknowledged a proposal of ours).
+    if (!mine && !m.requester.empty() && m.requester != ctx_->instance) return;
+    addToReplica(l, params_.update_channel);
+    revision_ = std::max(revision_, m.revision);
+    return;
+  }
+  if (revision_ >= 0 && m.revision > revision_ + 1) {
+    log::info("landmark updates ", revision_ + 1, "..", m.revision - 1, " of ", database_id_,
+              " missed: asking for them");
+    requestSync(revision_, {});
+  }
+  revision_ = std::max(revision_, m.revision);
+  switch (m.op) {
+    case U::OP_CREATED:
+    case U::OP_LOADED:
+      addToReplica(l, params_.update_channel);
+      break;
+    case U::OP_UPDATED:
+      if (l.num_points > 0) addToReplica(l, params_.update_channel);  // structure changed
+      break;
+    case U::OP_REMOVED:
+    case U::OP_EVICTED:
+      if (replica_.erase(l.landmark_id) > 0) {
+        index_.remove(l.landmark_id);
+        std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+        ++stats_.replica_removed;
+      }
+      break;
+    default:
+      ctx_->bus.reportMalformed(params_.update_channel, "op " + std::to_string(m.op));
+  }
+}
+
+void FrontendStage::onSummary(const vslam::landmark_summary_t& s) {
+  if (s.landmark_ids.size() != s.versions.size() || s.database_id.empty()) {
+    ctx_->bus.reportMalformed(params_.summary_channel, "summary without a database_id or sizes");
+    return;
+  }
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  adoptDatabase(s.database_id);
+  // The summary lists what the DB holds in memory as of its revision; updates
+  // published before it have arrived before it.
+  const std::set<int64_t> listed(s.landmark_ids.begin(), s.landmark_ids.end());
+  std::vector<int64_t> extra, missing;
+  for (int64_t id : replica_) {
+    if (listed.count(id) == 0) extra.push_back(id);
+  }
+  for (int64_t id : listed) {
+    if (replica_.count(id) == 0) missing.push_back(id);
+  }
+  for (int64_t id : extra) {
+    replica_.erase(id);
+    index_.remove(id);
+  }
+  if (!extra.empty()) {
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    stats_.replica_removed += static_cast<int64_t>(extra.size());
+  }
+  revision_ = std::max(revision_, s.revision);
+  if (!missing.empty()) requestSync(-1, std::move(missing));
+}
+
+void FrontendStage::resendPending() {
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  const Utime now = ctx_->clock.now();
+  const Utime timeout = fromSeconds(params_.proposal_timeout_s);
+  for (auto& [id, p] : pending_) {
+    if (now - p.sent < timeout) continue;
+    p.sent = now;
+    ctx_->bus.publish(params_.proposal_channel, p.proposal);
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    ++stats_.resent;
+  }
 }
 
 bool FrontendStage::toGray(const vslam::image_t& msg, cv::Mat* gray) {
@@ -183,6 +353,7 @@ bool FrontendStage::toGray(const vslam::image_t& msg, cv::Mat* gray) {
 
 void FrontendStage::process(vslam::image_t& msg) {
   if (!toGray(msg, &gray_)) return;
+  if (params_.use_landmark_db) resendPending();
   View view;
   view.utime = msg.utime;
   Utime t0 = monotonicUtime();
@@ -209,6 +380,12 @@ void FrontendStage::process(vslam::image_t& msg) {
       continue;
     }
     const frontend::PoseMeasurement& pm = result.measurement;
+    const bool covers =
+        frontend::prefilter(pm, params_.prefilter) == frontend::MeasurementStatus::kAccepted;
+    place_covered = place_covered || covers;
+    // A landmark the DB has not acknowledged yet has no global id: it keeps
+    // the place from being proposed again, but is not measured.
+    if (r.landmark_id < 0) continue;
     vslam::visual_measurement_t out{};
     out.utime = msg.utime;
     out.seq = measurement_seq_++;
@@ -224,8 +401,6 @@ void FrontendStage::process(vslam::image_t& msg) {
     out.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
     ctx_->bus.publish(params_.measurement_channel, out);
     ++measured;
-    place_covered = place_covered || frontend::prefilter(pm, params_.prefilter) ==
-                                         frontend::MeasurementStatus::kAccepted;
   }
   const double measurement_ms = msSince(t0);
 
@@ -273,9 +448,14 @@ void FrontendStage::considerCreation(View view, bool place_covered) {
     ++stats_.creation_failures;
     return;
   }
-  const int64_t id = params_.camera_number * kIdsPerCamera + next_landmark_++;
+  // With a DB: a proposal id unique to this run (the first frame's time plus
+  // a counter), in the index as -id until the DB names the global id.
+  if (proposal_base_ < 0) proposal_base_ = views_[0].utime;
+  const int64_t id = params_.use_landmark_db
+                         ? proposal_base_ + next_landmark_++
+                         : params_.camera_number * kIdsPerCamera + next_landmark_++;
   frontend::LandmarkModel model;
-  model.id = id;
+  model.id = params_.use_landmark_db ? -id : id;
   model.points_robot = result.landmark.points_robot;
   model.descriptors.create(static_cast<int>(result.landmark.feature_index.size()), 128, CV_32F);
   for (size_t i = 0; i < result.landmark.feature_index.size(); ++i) {
@@ -283,25 +463,28 @@ void FrontendStage::considerCreation(View view, bool place_covered) {
         .features.descriptors.row(result.landmark.feature_index[i])
         .copyTo(model.descriptors.row(static_cast<int>(i)));
   }
+  vslam::landmark_update_t proposal = makeProposal(views_[0], result.landmark, id);
   {
     std::lock_guard<std::mutex> lock(index_mutex_);
     index_.add(std::move(model));
+    if (params_.use_landmark_db) pending_[id] = {proposal, ctx_->clock.now()};
   }
-  publishProposal(views_[0], result.landmark, id);
+  ctx_->bus.publish(params_.proposal_channel, proposal);
   views_.clear();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.created;
 }
 
-void FrontendStage::publishProposal(const View& v1, const frontend::CreatedLandmark& lm,
-                                    int64_t id) {
+vslam::landmark_update_t FrontendStage::makeProposal(const View& v1,
+                                                     const frontend::CreatedLandmark& lm,
+                                                     int64_t id) const {
   vslam::landmark_update_t m{};
   m.utime = v1.utime;
   m.database_id = "";
   m.revision = 0;
   m.op = vslam::landmark_update_t::OP_PROPOSED;
   vslam::landmark_t& l = m.landmark;
-  l.landmark_id = id;
+  l.landmark_id = params_.use_landmark_db ? -1 : id;
   l.proposal_id = id;
   l.version = 0;
   l.camera = params_.camera.name;
@@ -331,7 +514,7 @@ void FrontendStage::publishProposal(const View& v1, const frontend::CreatedLandm
           static_cast<uint8_t>(std::clamp(std::lround(d[c]), 0L, 255L));
     }
   }
-  ctx_->bus.publish(params_.proposal_channel, m);
+  return m;
 }
 
 void FrontendStage::collectHealth(bus::HealthReport& report) {
@@ -348,7 +531,13 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
                 stats_.sift_ms - last_.sift_ms,
                 stats_.recognition_ms - last_.recognition_ms,
                 stats_.measurement_ms - last_.measurement_ms,
-                stats_.creation_ms - last_.creation_ms};
+                stats_.creation_ms - last_.creation_ms,
+                stats_.acknowledged - last_.acknowledged,
+                stats_.rejected - last_.rejected,
+                stats_.resent - last_.resent,
+                stats_.sync_requests - last_.sync_requests,
+                stats_.replica_added - last_.replica_added,
+                stats_.replica_removed - last_.replica_removed};
   last_ = stats_;
   const double frames = std::max<double>(1.0, static_cast<double>(d.frames));
   report.add("frames_processed", static_cast<double>(d.frames), "count");
@@ -365,6 +554,20 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   {
     std::lock_guard<std::mutex> index_lock(index_mutex_);
     report.add("landmarks_known", static_cast<double>(index_.size()), "count");
+    if (params_.use_landmark_db) {
+      report.add("landmarks_pending", static_cast<double>(pending_.size()), "count");
+      report.add("replica_landmarks", static_cast<double>(replica_.size()), "count");
+      report.add("replica_revision", static_cast<double>(revision_), "");
+      if (database_id_.empty()) report.warn("no landmark database heard yet");
+    }
+  }
+  if (params_.use_landmark_db) {
+    report.add("proposals_acknowledged", static_cast<double>(stats_.acknowledged), "count");
+    report.add("proposals_rejected", static_cast<double>(stats_.rejected), "count");
+    report.add("proposals_resent", static_cast<double>(stats_.resent), "count");
+    report.add("sync_requests", static_cast<double>(stats_.sync_requests), "count");
+    report.add("replica_added", static_cast<double>(stats_.replica_added), "count");
+    report.add("replica_removed", static_cast<double>(stats_.replica_removed), "count");
   }
   report.add("frames_dropped", static_cast<double>(worker_ ? worker_->dropped() : 0), "count");
   if (d.no_odometry > 0) report.warn("frames without odometry: no landmarks can be created");

@@ -10,16 +10,29 @@
 // three views ~creation_baseline_m apart by odometry and creates a new
 // landmark from them, published on LANDMARK_PROPOSAL.
 //
-// Landmark ids: until the landmark DB manager assigns global ids, each
-// front-end numbers its landmarks camera_number * 1e9 + n (camera_number =
-// 1-based position in the robot file), uses that id in its measurements and
-// publishes it in the proposal; front-ends add each other's proposals to
-// their index, so every camera recognizes every landmark.
+// Landmark ids (`landmark_db:` in the instance's block; docs/landmark-db.md):
+//  - required: the landmark DB (vslam-landmark-db) owns the landmarks. A new
+//    landmark is proposed on LANDMARK_PROPOSAL with a proposal_id and kept
+//    "pending" (recognized, so the place is not proposed twice, but never
+//    measured: measurements carry global ids only) until the DB's OP_CREATED
+//    names its global id (OP_REJECTED drops it; no answer within
+//    proposal_timeout_s sends it again). The recognition index is a replica
+//    of the DB's in-memory set, kept current from LANDMARK_UPDATE (created,
+//    loaded: added; removed, evicted: dropped); a revision gap, another
+//    database_id, or a LANDMARK_SUMMARY that lists ids it lacks makes the
+//    front-end ask for them on LANDMARK_REQUEST (OP_SNAPSHOT answers).
+//  - none: no DB. Each front-end numbers its landmarks camera_number * 1e9 + n
+//    (camera_number = 1-based position in the robot file), uses that id in its
+//    measurements and proposals, and adds other front-ends' proposals to its
+//    index, so every camera still recognizes every landmark (nothing persists).
 
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <vslam/image_t.hpp>
+#include <vslam/landmark_summary_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
 
@@ -38,6 +51,9 @@ struct FrontendParams {
   std::string odometry_channel;
   std::string measurement_channel;
   std::string proposal_channel;
+  std::string update_channel, summary_channel, request_channel;
+  bool use_landmark_db = true;         // landmark_db: required (true) | none
+  double proposal_timeout_s = 2.0;     // unanswered proposals are sent again after this
   double creation_baseline_m = 0.20;   // odometry travel between the three views
   double max_view_span_s = 20.0;       // views older than this are dropped
   int max_measurements_per_frame = 4;  // recognized landmarks measured per frame, best first
@@ -59,7 +75,8 @@ class FrontendStage final : public bus::Stage {
   void stop() override;
   void collectHealth(bus::HealthReport& report) override;
   std::vector<std::string> outputChannels() const override {
-    return {params_.measurement_channel, params_.proposal_channel};
+    if (!params_.use_landmark_db) return {params_.measurement_channel, params_.proposal_channel};
+    return {params_.measurement_channel, params_.proposal_channel, params_.request_channel};
   }
 
  private:
@@ -72,16 +89,26 @@ class FrontendStage final : public bus::Stage {
     int64_t frames = 0, features = 0, recognitions = 0, measurements = 0, measurement_failures = 0;
     int64_t created = 0, creation_failures = 0, foreign_landmarks = 0, no_odometry = 0;
     double sift_ms = 0, recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
+    int64_t acknowledged = 0, rejected = 0, resent = 0, sync_requests = 0, replica_added = 0,
+            replica_removed = 0;
   };
 
   void onImage(const vslam::image_t& msg);
   void onOdometry(const vslam::odometry_t& msg);
   void onProposal(const vslam::landmark_update_t& msg);
+  // Landmark DB replica (landmark_db: required).
+  void onUpdate(const vslam::landmark_update_t& msg);
+  void onSummary(const vslam::landmark_summary_t& msg);
+  void adoptDatabase(const std::string& database_id);                         // index_mutex_ held
+  void requestSync(int64_t since_revision, std::vector<int64_t> ids);         // index_mutex_ held
+  void addToReplica(const vslam::landmark_t& l, const std::string& channel);  // index_mutex_ held
+  void resendPending();
   void process(vslam::image_t& msg);
   bool toGray(const vslam::image_t& msg, cv::Mat* gray);
   bool odometryAt(Utime t, Pose2* pose);
   void considerCreation(View view, bool place_covered);
-  void publishProposal(const View& view1, const frontend::CreatedLandmark& lm, int64_t id);
+  vslam::landmark_update_t makeProposal(const View& view1, const frontend::CreatedLandmark& lm,
+                                        int64_t id) const;
 
   FrontendParams params_;
   bus::StageContext* ctx_ = nullptr;
@@ -96,6 +123,17 @@ class FrontendStage final : public bus::Stage {
   std::deque<View> views_;
   cv::Mat gray_;
   int64_t next_landmark_ = 1;
+  // Replica state (under index_mutex_).
+  struct Pending {
+    vslam::landmark_update_t proposal;
+    Utime sent = 0;
+  };
+  int64_t proposal_base_ = -1;          // first frame's utime: proposal ids of this run
+  std::map<int64_t, Pending> pending_;  // by proposal_id; in the index as -proposal_id
+  std::set<int64_t> replica_;           // global ids in the index
+  std::string database_id_;             // database the replica follows ("" none yet)
+  int64_t revision_ = -1;               // last revision applied (-1 unknown)
+  Utime last_request_ = 0;
   int64_t measurement_seq_ = 0;
   std::mutex stats_mutex_;
   Stats stats_, last_;

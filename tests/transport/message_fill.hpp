@@ -180,6 +180,7 @@ inline void fill(vslam::landmark_summary_t& m, int s) {
   m.utime = tv(s, 6);
   m.database_id = sv("db", s);
   m.revision = 6000 + s;
+  m.num_stored = 7000 + s;
   m.num_landmarks = nv(s, 6);
   m.landmark_ids.resize(static_cast<size_t>(m.num_landmarks));
   m.versions.resize(static_cast<size_t>(m.num_landmarks));

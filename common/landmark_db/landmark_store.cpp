@@ -1,0 +1,509 @@
+#include "landmark_db/landmark_store.hpp"
+
+#include <sqlite3.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace vslam::landmark_db {
+namespace {
+
+constexpr const char* kFormat = "vslam-landmark-map";
+
+static_assert(sizeof(float) == 4, "blobs are float32");
+
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql, const std::string& file) : db_(db), file_(file) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK) {
+      throw MapFileError(file_ + ": " + sqlite3_errmsg(db) + " (in: " + sql + ")");
+    }
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  sqlite3_stmt* get() { return stmt_; }
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc != SQLITE_DONE) throw MapFileError(file_ + ": " + sqlite3_errmsg(db_));
+    return false;
+  }
+  void run() {
+    step();
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+  void bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
+  void bind(int i, double v) { sqlite3_bind_double(stmt_, i, v); }
+  void bind(int i, const std::string& v) {
+    sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
+  }
+  template <class T>
+  void bindBlob(int i, const std::vector<T>& v) {
+    sqlite3_bind_blob(stmt_, i, v.empty() ? "" : static_cast<const void*>(v.data()),
+                      static_cast<int>(v.size() * sizeof(T)), SQLITE_TRANSIENT);
+  }
+  int64_t int64(int c) { return sqlite3_column_int64(stmt_, c); }
+  double real(int c) { return sqlite3_column_double(stmt_, c); }
+  std::string text(int c) {
+    const auto* t = sqlite3_column_text(stmt_, c);
+    return t ? reinterpret_cast<const char*>(t) : "";
+  }
+  template <class T>
+  bool blob(int c, size_t expected_count, std::vector<T>* out) {
+    const int bytes = sqlite3_column_bytes(stmt_, c);
+    if (bytes < 0 || static_cast<size_t>(bytes) != expected_count * sizeof(T)) return false;
+    out->resize(expected_count);
+    if (bytes > 0)
+      std::memcpy(out->data(), sqlite3_column_blob(stmt_, c), static_cast<size_t>(bytes));
+    return true;
+  }
+
+ private:
+  sqlite3* db_;
+  std::string file_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+constexpr const char* kInfoColumns =
+    "landmark_id, camera, proposal_id, version, revision, created_utime, odom_x, odom_y,"
+    " odom_theta, num_points, num_recognitions, num_accepted, num_rejected, last_seen_utime,"
+    " pose_source, map_x, map_y, map_theta, fingerprint";
+
+LandmarkInfo readInfo(Statement& s) {
+  LandmarkInfo i;
+  i.id = s.int64(0);
+  i.camera = s.text(1);
+  i.proposal_id = s.int64(2);
+  i.version = static_cast<int32_t>(s.int64(3));
+  i.revision = s.int64(4);
+  i.created_utime = s.int64(5);
+  i.created_odom = {s.real(6), s.real(7), s.real(8)};
+  i.num_points = static_cast<int32_t>(s.int64(9));
+  i.stats.num_recognitions = static_cast<int32_t>(s.int64(10));
+  i.stats.num_accepted = static_cast<int32_t>(s.int64(11));
+  i.stats.num_rejected = static_cast<int32_t>(s.int64(12));
+  i.stats.last_seen_utime = s.int64(13);
+  const int64_t src = s.int64(14);
+  i.pose_source = src == 2   ? PoseSource::kMap
+                  : src == 1 ? PoseSource::kProvisional
+                             : PoseSource::kOdometry;
+  i.map_pose = {s.real(15), s.real(16), s.real(17)};
+  i.fingerprint = static_cast<uint64_t>(s.int64(18));
+  return i;
+}
+
+bool fileExists(const std::string& f) {
+  std::error_code ec;
+  return std::filesystem::exists(f, ec);
+}
+
+}  // namespace
+
+LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptions& options)
+    : file_(file.string()), read_only_(options.read_only) {
+  in_memory_ = file_.empty() || file_ == ":memory:";
+  if (in_memory_) {
+    file_ = ":memory:";
+    if (sqlite3_open_v2(":memory:", &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
+        SQLITE_OK) {
+      throw MapFileError("cannot open an in-memory database");
+    }
+    read_only_ = false;
+    createSchema(options);
+    readMeta();
+    return;
+  }
+  if (!fileExists(file_)) {
+    if (!options.create_if_missing || options.read_only) {
+      throw MapFileError(file_ + ": no such map file");
+    }
+    // Built under a temporary name and renamed: a crash never leaves half a schema.
+    std::filesystem::path tmp = file;
+    tmp += ".new";
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
+    const std::string final_name = file_;
+    file_ = tmp.string();
+    if (sqlite3_open_v2(file_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
+        SQLITE_OK) {
+      const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw MapFileError(final_name + ": cannot create: " + why);
+    }
+    createSchema(options);
+    exec("PRAGMA journal_mode=DELETE");
+    sqlite3_close(db_);
+    db_ = nullptr;
+    std::filesystem::rename(tmp, final_name, ec);
+    if (ec) throw MapFileError(final_name + ": cannot create: " + ec.message());
+    file_ = final_name;
+  }
+  // An existing file: check what it is before SQLite may write anything.
+  {
+    std::ifstream in(file_, std::ios::binary);
+    if (!in) throw MapFileError(file_ + ": cannot be read");
+    char header[16] = {};
+    in.read(header, sizeof(header));
+    if (in.gcount() == 0) {
+      throw MapFileError(file_ + ": empty file, not a landmark map (left untouched)");
+    }
+    if (in.gcount() < 16 || std::memcmp(header, "SQLite format 3", 16) != 0) {
+      throw MapFileError(file_ +
+                         ": not an SQLite database, so not a landmark map (left untouched)");
+    }
+  }
+  const int flags = read_only_ ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
+  if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+    const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw MapFileError(file_ + ": cannot open: " + why);
+  }
+  try {
+    checkIdentity();
+    if (options.quick_check) {
+      Statement s(db_, "PRAGMA quick_check", file_);
+      std::string problems;
+      while (s.step()) {
+        const std::string line = s.text(0);
+        if (line != "ok") problems += (problems.empty() ? "" : "; ") + line;
+      }
+      if (!problems.empty()) {
+        throw MapFileError(file_ + ": the map file is damaged (" + problems +
+                           "); left untouched: restore a copy or check it with vslam-map check");
+      }
+    }
+    if (!read_only_) {
+      exec("PRAGMA journal_mode=WAL");
+      exec("PRAGMA synchronous=FULL");
+    }
+    readMeta();
+  } catch (const MapFileError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  } catch (const std::exception& e) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw MapFileError(file_ + ": " + e.what());
+  }
+}
+
+LandmarkStore::~LandmarkStore() {
+  if (db_ != nullptr) {
+    // Fold the WAL into the main file so the map is one file again.
+    if (!read_only_ && !in_memory_)
+      sqlite3_exec(db_, "PRAGMA wal_checkpoint(TRUNCATE)", nullptr, nullptr, nullptr);
+    sqlite3_close(db_);
+  }
+}
+
+void LandmarkStore::exec(const std::string& sql) {
+  char* err = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    const std::string why = err ? err : sqlite3_errmsg(db_);
+    sqlite3_free(err);
+    throw MapFileError(file_ + ": " + why);
+  }
+}
+
+void LandmarkStore::fail(const std::string& what) {
+  throw MapFileError(file_ + ": " + what + ": " + sqlite3_errmsg(db_));
+}
+
+void LandmarkStore::checkIdentity() {
+  int64_t app_id = 0, user_version = 0;
+  {
+    sqlite3_stmt* s = nullptr;
+    if (sqlite3_prepare_v2(db_, "PRAGMA application_id", -1, &s, nullptr) != SQLITE_OK ||
+        sqlite3_step(s) != SQLITE_ROW) {
+      const std::string why = sqlite3_errmsg(db_);
+      sqlite3_finalize(s);
+      throw MapFileError(file_ + ": not a readable SQLite database (" + why + "); left untouched");
+    }
+    app_id = sqlite3_column_int64(s, 0);
+    sqlite3_finalize(s);
+  }
+  if (app_id != kApplicationId) {
+    std::ostringstream os;
+    os << file_ << ": not a vslam landmark map (SQLite application_id 0x" << std::hex << app_id
+       << ", expected 0x" << kApplicationId << "); left untouched";
+    throw MapFileError(os.str());
+  }
+  {
+    Statement s(db_, "PRAGMA user_version", file_);
+    if (s.step()) user_version = s.int64(0);
+  }
+  if (user_version != kSchemaVersion) {
+    throw MapFileError(file_ + ": landmark map schema " + std::to_string(user_version) +
+                       ", this program reads schema " + std::to_string(kSchemaVersion) +
+                       "; left untouched");
+  }
+}
+
+void LandmarkStore::createSchema(const StoreOptions& options) {
+  exec("PRAGMA application_id=" + std::to_string(kApplicationId) +
+       "; PRAGMA user_version=" + std::to_string(kSchemaVersion) + ";");
+  exec(
+      "BEGIN;"
+      "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);"
+      "CREATE TABLE landmarks(landmark_id INTEGER PRIMARY KEY, camera TEXT NOT NULL,"
+      " proposal_id INTEGER NOT NULL, version INTEGER NOT NULL, revision INTEGER NOT NULL,"
+      " created_utime INTEGER NOT NULL, odom_x REAL, odom_y REAL, odom_theta REAL,"
+      " num_points INTEGER NOT NULL, descriptor_size INTEGER NOT NULL, points BLOB NOT NULL,"
+      " keypoints BLOB NOT NULL, scales BLOB NOT NULL, orientations BLOB NOT NULL,"
+      " descriptors BLOB NOT NULL, num_recognitions INTEGER NOT NULL DEFAULT 0,"
+      " num_accepted INTEGER NOT NULL DEFAULT 0, num_rejected INTEGER NOT NULL DEFAULT 0,"
+      " last_seen_utime INTEGER NOT NULL DEFAULT 0, pose_source INTEGER NOT NULL DEFAULT 0,"
+      " map_x REAL, map_y REAL, map_theta REAL, fingerprint INTEGER NOT NULL,"
+      " UNIQUE(camera, proposal_id, fingerprint));");
+  {
+    Statement s(db_, "INSERT INTO meta VALUES (?, ?)", file_);
+    const std::pair<std::string, std::string> rows[] = {
+        {"format", kFormat},
+        {"schema", std::to_string(kSchemaVersion)},
+        {"database_id", options.new_database_id.empty() ? "unnamed" : options.new_database_id},
+        {"revision", "0"},
+        {"next_id", "1"},
+        {"created_utime", std::to_string(options.now)}};
+    for (const auto& [k, v] : rows) {
+      s.bind(1, k);
+      s.bind(2, v);
+      s.run();
+    }
+  }
+  exec("COMMIT;");
+}
+
+void LandmarkStore::readMeta() {
+  std::map<std::string, std::string> meta;
+  try {
+    Statement s(db_, "SELECT key, value FROM meta", file_);
+    while (s.step()) meta[s.text(0)] = s.text(1);
+  } catch (const MapFileError& e) {
+    throw MapFileError(file_ + ": a landmark map without its meta table (" + e.what() + ")");
+  }
+  if (meta["format"] != kFormat) {
+    throw MapFileError(file_ + ": meta.format is '" + meta["format"] + "', not '" + kFormat + "'");
+  }
+  try {
+    database_id_ = meta.at("database_id");
+    revision_ = std::stoll(meta.at("revision"));
+    next_id_ = std::stoll(meta.at("next_id"));
+    created_utime_ = std::stoll(meta.at("created_utime"));
+  } catch (const std::exception&) {
+    throw MapFileError(file_ + ": meta table incomplete or not numeric");
+  }
+  // next_id never falls below what the table holds (belt and braces).
+  Statement s(db_, "SELECT COALESCE(MAX(landmark_id), 0) FROM landmarks", file_);
+  if (s.step()) next_id_ = std::max(next_id_, s.int64(0) + 1);
+}
+
+void LandmarkStore::writeMetaValue(const char* key, const std::string& value) {
+  Statement s(db_, "UPDATE meta SET value = ? WHERE key = ?", file_);
+  s.bind(1, value);
+  s.bind(2, std::string(key));
+  s.run();
+}
+
+void LandmarkStore::begin() {
+  if (read_only_) throw MapFileError(file_ + ": opened read-only");
+  exec("BEGIN IMMEDIATE");
+}
+
+void LandmarkStore::commit(Utime started) {
+  exec("COMMIT");
+  commit_ms_sum_ += 1e-3 * static_cast<double>(monotonicUtime() - started);
+  ++commit_count_;
+}
+
+double LandmarkStore::takeMeanCommitMs(int64_t* count) {
+  const double mean = commit_count_ > 0 ? commit_ms_sum_ / static_cast<double>(commit_count_) : 0;
+  if (count != nullptr) *count = commit_count_;
+  commit_ms_sum_ = 0;
+  commit_count_ = 0;
+  return mean;
+}
+
+std::vector<LandmarkInfo> LandmarkStore::loadAllInfo() {
+  std::vector<LandmarkInfo> out;
+  const std::string sql =
+      std::string("SELECT ") + kInfoColumns + " FROM landmarks ORDER BY landmark_id";
+  Statement s(db_, sql.c_str(), file_);
+  while (s.step()) out.push_back(readInfo(s));
+  return out;
+}
+
+std::optional<LandmarkStructure> LandmarkStore::loadStructure(int64_t id) {
+  Statement s(db_,
+              "SELECT num_points, descriptor_size, points, keypoints, scales, orientations,"
+              " descriptors FROM landmarks WHERE landmark_id = ?",
+              file_);
+  s.bind(1, id);
+  if (!s.step()) return std::nullopt;
+  LandmarkStructure st;
+  st.num_points = static_cast<int32_t>(s.int64(0));
+  st.descriptor_size = static_cast<int32_t>(s.int64(1));
+  const size_t n = st.num_points > 0 ? static_cast<size_t>(st.num_points) : 0;
+  const size_t d = st.descriptor_size > 0 ? static_cast<size_t>(st.descriptor_size) : 0;
+  if (!s.blob(2, 3 * n, &st.points) || !s.blob(3, 2 * n, &st.keypoints) ||
+      !s.blob(4, n, &st.scales) || !s.blob(5, n, &st.orientations) ||
+      !s.blob(6, n * d, &st.descriptors)) {
+    throw MapFileError(file_ + ": landmark " + std::to_string(id) +
+                       ": blob sizes disagree with num_points");
+  }
+  return st;
+}
+
+std::optional<int64_t> LandmarkStore::findProposal(const std::string& camera, int64_t proposal_id,
+                                                   uint64_t fingerprint) {
+  Statement s(db_,
+              "SELECT landmark_id FROM landmarks WHERE camera = ? AND proposal_id = ? AND"
+              " fingerprint = ?",
+              file_);
+  s.bind(1, camera);
+  s.bind(2, proposal_id);
+  s.bind(3, static_cast<int64_t>(fingerprint));
+  if (!s.step()) return std::nullopt;
+  return s.int64(0);
+}
+
+int64_t LandmarkStore::insert(LandmarkInfo info, const LandmarkStructure& st, int64_t revision) {
+  const Utime t0 = monotonicUtime();
+  if (info.id <= 0) info.id = next_id_;
+  begin();
+  try {
+    Statement s(db_,
+                "INSERT INTO landmarks (landmark_id, camera, proposal_id, version, revision,"
+                " created_utime, odom_x, odom_y, odom_theta, num_points, descriptor_size, points,"
+                " keypoints, scales, orientations, descriptors, num_recognitions, num_accepted,"
+                " num_rejected, last_seen_utime, pose_source, map_x, map_y, map_theta, fingerprint)"
+                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                file_);
+    s.bind(1, info.id);
+    s.bind(2, info.camera);
+    s.bind(3, info.proposal_id);
+    s.bind(4, static_cast<int64_t>(info.version));
+    s.bind(5, revision);
+    s.bind(6, info.created_utime);
+    s.bind(7, info.created_odom.x);
+    s.bind(8, info.created_odom.y);
+    s.bind(9, info.created_odom.theta);
+    s.bind(10, static_cast<int64_t>(st.num_points));
+    s.bind(11, static_cast<int64_t>(st.descriptor_size));
+    s.bindBlob(12, st.points);
+    s.bindBlob(13, st.keypoints);
+    s.bindBlob(14, st.scales);
+    s.bindBlob(15, st.orientations);
+    s.bindBlob(16, st.descriptors);
+    s.bind(17, static_cast<int64_t>(info.stats.num_recognitions));
+    s.bind(18, static_cast<int64_t>(info.stats.num_accepted));
+    s.bind(19, static_cast<int64_t>(info.stats.num_rejected));
+    s.bind(20, info.stats.last_seen_utime);
+    s.bind(21, static_cast<int64_t>(info.pose_source));
+    s.bind(22, info.map_pose.x);
+    s.bind(23, info.map_pose.y);
+    s.bind(24, info.map_pose.theta);
+    s.bind(25, static_cast<int64_t>(info.fingerprint));
+    s.run();
+    writeMetaValue("revision", std::to_string(revision));
+    writeMetaValue("next_id", std::to_string(std::max(next_id_, info.id + 1)));
+    commit(t0);
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  revision_ = revision;
+  next_id_ = std::max(next_id_, info.id + 1);
+  return info.id;
+}
+
+void LandmarkStore::updateInfos(const std::vector<LandmarkInfo>& infos, int64_t revision) {
+  const Utime t0 = monotonicUtime();
+  begin();
+  try {
+    Statement s(db_,
+                "UPDATE landmarks SET version = ?, revision = ?, num_recognitions = ?,"
+                " num_accepted = ?, num_rejected = ?, last_seen_utime = ?, pose_source = ?,"
+                " map_x = ?, map_y = ?, map_theta = ? WHERE landmark_id = ?",
+                file_);
+    for (const auto& i : infos) {
+      s.bind(1, static_cast<int64_t>(i.version));
+      s.bind(2, i.revision);
+      s.bind(3, static_cast<int64_t>(i.stats.num_recognitions));
+      s.bind(4, static_cast<int64_t>(i.stats.num_accepted));
+      s.bind(5, static_cast<int64_t>(i.stats.num_rejected));
+      s.bind(6, i.stats.last_seen_utime);
+      s.bind(7, static_cast<int64_t>(i.pose_source));
+      s.bind(8, i.map_pose.x);
+      s.bind(9, i.map_pose.y);
+      s.bind(10, i.map_pose.theta);
+      s.bind(11, i.id);
+      s.run();
+    }
+    writeMetaValue("revision", std::to_string(revision));
+    commit(t0);
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  revision_ = revision;
+}
+
+void LandmarkStore::remove(const std::vector<int64_t>& ids, int64_t revision) {
+  const Utime t0 = monotonicUtime();
+  begin();
+  try {
+    Statement s(db_, "DELETE FROM landmarks WHERE landmark_id = ?", file_);
+    for (int64_t id : ids) {
+      s.bind(1, id);
+      s.run();
+    }
+    writeMetaValue("revision", std::to_string(revision));
+    commit(t0);
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  revision_ = revision;
+}
+
+void LandmarkStore::setRevision(int64_t revision) {
+  const Utime t0 = monotonicUtime();
+  begin();
+  try {
+    writeMetaValue("revision", std::to_string(revision));
+    commit(t0);
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  revision_ = revision;
+}
+
+std::string LandmarkStore::integrityCheck() {
+  Statement s(db_, "PRAGMA integrity_check", file_);
+  std::string out;
+  while (s.step()) out += (out.empty() ? "" : "\n") + s.text(0);
+  return out;
+}
+
+int64_t LandmarkStore::fileBytes() const {
+  if (in_memory_) return 0;
+  int64_t total = 0;
+  for (const char* suffix : {"", "-wal"}) {
+    std::error_code ec;
+    const auto n = std::filesystem::file_size(file_ + suffix, ec);
+    if (!ec) total += static_cast<int64_t>(n);
+  }
+  return total;
+}
+
+}  // namespace vslam::landmark_db
