@@ -13,7 +13,7 @@
 #include "eval/errors.hpp"
 #include "eval/log_measurements.hpp"
 #include "eval/measurement_eval.hpp"
-#include "support/test_logs.hpp"
+#include "eval_test_util.hpp"
 
 using namespace vslam::eval;
 
@@ -92,7 +92,7 @@ TEST(MeasurementEval, BandsCountAcceptedAndRejectedByXyError) {
       sample(7, 0.15, 0, 0),                 // 15 cm: 10-20
       sample(8, 0.0, 0.55, 0, V::kSlope),    // 55 cm: 50-70
       sample(9, 2.5, 0, 0),                  // 250 cm: > 200
-      sample(10, 0.105, 0, 0),                // 10.5 cm: 10-20
+      sample(10, 0.105, 0, 0),               // 10.5 cm: 10-20
   };
   const MeasurementReport r = evaluateMeasurements(lineAlongY(), s, kCreations);
   ASSERT_EQ(r.bands.size(), 10u);
@@ -138,21 +138,12 @@ TEST(MeasurementEval, GroundTruthGapIsNotBridged) {
 }
 
 TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
-  const auto dir = vslam::test::scratchDir("measurement_eval");
+  const auto dir = vslam::test::freshDir("measurement_eval");
   const auto path = dir / "run.lcmlog";
   {
-    lcm::LogFile log(path.string(), "w");
-    int64_t n = 0;
+    vslam::test::LogBuilder log(path);
     auto write = [&](const std::string& channel, const auto& msg, int64_t utime) {
-      std::vector<uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
-      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      lcm::LogEvent ev;
-      ev.eventnum = n++;
-      ev.timestamp = utime;
-      ev.channel = channel;
-      ev.datalen = static_cast<int32_t>(buf.size());
-      ev.data = buf.data();
-      log.writeEvent(&ev);
+      log.add(utime, channel, msg);
     };
     for (const auto& p : lineAlongY().poses) {
       vslam::ground_truth_pose_t g{};
@@ -212,6 +203,7 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   } catch (const DataError& e) {
     EXPECT_NE(std::string(e.what()).find("VISUAL_MEASUREMENT (5)"), std::string::npos) << e.what();
   }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
