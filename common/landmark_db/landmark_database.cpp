@@ -96,7 +96,7 @@ LandmarkDatabase::LandmarkDatabase(std::unique_ptr<LandmarkStore> store, Databas
     : store_(std::move(store)), params_(std::move(params)) {
   revision_ = store_->revision();
   for (auto& i : store_->loadAllInfo()) infos_.emplace(i.id, std::move(i));
-  updateActiveSet(true);
+  updateActive(true, false);
 }
 
 const LandmarkInfo* LandmarkDatabase::info(int64_t id) const {
@@ -288,7 +288,7 @@ void LandmarkDatabase::setRobotPose(const Pose2& map_pose) {
   if (map_pose.isFinite()) robot_ = map_pose;
 }
 
-std::vector<Change> LandmarkDatabase::updateActiveSet(bool force) {
+std::vector<Change> LandmarkDatabase::updateActive(bool force, bool publish) {
   const auto& seg = params_.segmentation;
   const size_t budget = budgetBytes();
   const bool moved = robot_ && (!evaluated_at_ || std::hypot(robot_->x - evaluated_at_->x,
@@ -344,6 +344,11 @@ std::vector<Change> LandmarkDatabase::updateActiveSet(bool force) {
     if (active_.count(id) > 0) continue;
     auto st = store_->loadStructure(id);
     if (!st) continue;
+    if (!publish) {
+      activate(id, std::make_shared<const LandmarkStructure>(std::move(*st)),
+               infos_.at(id).revision);
+      continue;
+    }
     const int64_t rev = ++revision_;
     activate(id, std::make_shared<const LandmarkStructure>(std::move(*st)), rev);
     changes.push_back({ChangeOp::kLoaded, id, rev});

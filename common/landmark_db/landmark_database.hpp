@@ -126,7 +126,7 @@ class LandmarkDatabase {
   std::optional<Pose2> robotPose() const { return robot_; }
   // Recomputes the active set if the robot moved reevaluate_distance_m since
   // the last time, or `force`, or the budget is exceeded: evicts and loads.
-  std::vector<Change> updateActiveSet(bool force = false);
+  std::vector<Change> updateActiveSet(bool force = false) { return updateActive(force, true); }
   RegionKey regionOf(const Pose2& p) const;
   std::vector<RegionSummary> regions() const;
 
@@ -147,7 +147,8 @@ class LandmarkDatabase {
   size_t budgetBytes() const;
 
  private:
-  int64_t nextRevision() { return ++revision_; }
+  // publish = false (opening): landmarks enter the set without a change.
+  std::vector<Change> updateActive(bool force, bool publish);
   void activate(int64_t id, StructurePtr st, int64_t revision);
   void deactivate(int64_t id);
   bool duplicates(const LandmarkInfo& a, const LandmarkInfo& b) const;

@@ -182,7 +182,7 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     }
     if (!read_only_) {
       exec("PRAGMA journal_mode=WAL");
-      exec("PRAGMA synchronous=FULL");
+      exec(options.power_safe ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
     }
     readMeta();
   } catch (const MapFileError&) {

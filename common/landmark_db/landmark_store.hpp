@@ -49,6 +49,9 @@ struct StoreOptions {
   std::string new_database_id;
   Utime now = 0;            // a new file's created_utime
   bool quick_check = true;  // PRAGMA quick_check on open
+  // synchronous=FULL: a commit survives power loss. NORMAL (false) still
+  // survives kill -9 of the process (WAL), and is faster.
+  bool power_safe = true;
 };
 
 class LandmarkStore {
