@@ -198,6 +198,42 @@ TEST(PathHypotheses, NonFiniteInputIsRejected) {
   EXPECT_THROW(slam.step({1, 0, 0}, short_bins), std::invalid_argument);
 }
 
+// Tracing through a revisit: once a path is back in place 0, place 1 is one
+// link from it. Places 1 and 2 look alike here. With revisit_horizon the
+// step after the re-localisation predicts place 1 through place 0 (a 1 m
+// trace) and place 2 is out of reach; with the paper's tracing only, both
+// are traced from their first-lap visits through the whole lap and both
+// survive.
+TEST(PathHypotheses, TracingThroughARevisitFollowsTheMap) {
+  const auto look = [](int place) {
+    Histogram h(kBins, 0.f);
+    const int l = place == 2 ? 1 : place;
+    h[static_cast<size_t>(l)] = 0.6f;
+    h[static_cast<size_t>((l + 7) % kBins)] = 0.4f;
+    Snapshot z;
+    z.histograms = {h};
+    return z;
+  };
+  for (const int horizon : {10, 0}) {
+    SlamParams p = params();
+    p.revisit_horizon = horizon;
+    AppearanceSlam slam(p, 1, kBins);
+    slam.setActionModel(model());
+    slam.initialize(look(0));
+    for (int i = 0; i < kPlaces; ++i) slam.step(actionOf(kLap[i]), look((i + 1) % kPlaces));
+    ASSERT_EQ(slam.best().node->state_id, 0);
+    const StepResult r = slam.step(actionOf('F'), look(1));
+    const auto states = revisitedStates(r);
+    EXPECT_TRUE(states.count(1)) << "horizon " << horizon;
+    if (horizon > 0) {
+      EXPECT_FALSE(states.count(2)) << "place 2 is two links from place 0";
+      EXPECT_EQ(r.best().state_id, 1);
+    } else {
+      EXPECT_TRUE(states.count(2)) << "the paper's tracing cannot tell 1 from 2 here";
+    }
+  }
+}
+
 TEST(MapFile, RoundTripAndRelocalisationInTheLoadedMap) {
   const auto dir = vslam::test::scratchDir("appearance_map");
   const auto file = dir / "loop.map";
