@@ -14,6 +14,8 @@ namespace {
 
 constexpr int64_t kIdsPerCamera = 1000000000;
 constexpr Utime kMaxOdometryGap = 200000;  // us: no pose for a frame farther from any reading
+// Index ids of proposals the DB has not answered yet: far above any global id.
+constexpr int64_t kPendingIdBase = int64_t{1} << 62;
 constexpr Utime kMinRequestInterval = kMicrosPerSecond;  // between two replica sync requests
 
 frontend::LandmarkModel modelFromMessage(const vslam::landmark_t& l, int64_t id) {
@@ -226,7 +228,7 @@ void FrontendStage::onUpdate(const vslam::landmark_update_t& m) {
   // The answer to one of this front-end's proposals.
   const bool mine = l.camera == params_.camera.name && pending_.count(l.proposal_id) > 0;
   if (mine && (m.op == U::OP_CREATED || m.op == U::OP_SNAPSHOT || m.op == U::OP_REJECTED)) {
-    index_.remove(-l.proposal_id);
+    index_.remove(pending_[l.proposal_id].index_id);
     pending_.erase(l.proposal_id);
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++(m.op == U::OP_REJECTED ? stats_.rejected : stats_.acknowledged);
@@ -385,7 +387,7 @@ void FrontendStage::process(vslam::image_t& msg) {
     place_covered = place_covered || covers;
     // A landmark the DB has not acknowledged yet has no global id: it keeps
     // the place from being proposed again, but is not measured.
-    if (r.landmark_id < 0) continue;
+    if (r.landmark_id >= kPendingIdBase) continue;
     vslam::visual_measurement_t out{};
     out.utime = msg.utime;
     out.seq = measurement_seq_++;
@@ -449,13 +451,14 @@ void FrontendStage::considerCreation(View view, bool place_covered) {
     return;
   }
   // With a DB: a proposal id unique to this run (the first frame's time plus
-  // a counter), in the index as -id until the DB names the global id.
+  // a counter), in the index as kPendingIdBase + n until the DB names the global id.
   if (proposal_base_ < 0) proposal_base_ = views_[0].utime;
   const int64_t id = params_.use_landmark_db
                          ? proposal_base_ + next_landmark_++
                          : params_.camera_number * kIdsPerCamera + next_landmark_++;
   frontend::LandmarkModel model;
-  model.id = params_.use_landmark_db ? -id : id;
+  const int64_t index_id = params_.use_landmark_db ? kPendingIdBase + next_landmark_ : id;
+  model.id = index_id;
   model.points_robot = result.landmark.points_robot;
   model.descriptors.create(static_cast<int>(result.landmark.feature_index.size()), 128, CV_32F);
   for (size_t i = 0; i < result.landmark.feature_index.size(); ++i) {
@@ -467,7 +470,7 @@ void FrontendStage::considerCreation(View view, bool place_covered) {
   {
     std::lock_guard<std::mutex> lock(index_mutex_);
     index_.add(std::move(model));
-    if (params_.use_landmark_db) pending_[id] = {proposal, ctx_->clock.now()};
+    if (params_.use_landmark_db) pending_[id] = {proposal, ctx_->clock.now(), index_id};
   }
   ctx_->bus.publish(params_.proposal_channel, proposal);
   views_.clear();

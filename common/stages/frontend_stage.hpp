@@ -127,9 +127,10 @@ class FrontendStage final : public bus::Stage {
   struct Pending {
     vslam::landmark_update_t proposal;
     Utime sent = 0;
+    int64_t index_id = 0;  // its id in the index until the DB answers
   };
   int64_t proposal_base_ = -1;          // first frame's utime: proposal ids of this run
-  std::map<int64_t, Pending> pending_;  // by proposal_id; in the index as -proposal_id
+  std::map<int64_t, Pending> pending_;  // by proposal_id
   std::set<int64_t> replica_;           // global ids in the index
   std::string database_id_;             // database the replica follows ("" none yet)
   int64_t revision_ = -1;               // last revision applied (-1 unknown)

@@ -15,6 +15,7 @@
 #include "frontend/pose_measurement.hpp"
 #include "sim/simulator.hpp"
 #include "stages/builtin_stages.hpp"
+#include "stages/landmark_db_stage.hpp"
 #include "support/test_logs.hpp"
 
 namespace fs = std::filesystem;
@@ -53,6 +54,10 @@ TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
   options.input = dir / "sim.lcmlog";
   options.output = dir / "run.lcmlog";
   bus::LockstepReplay replay(options);
+  // The front-ends propose; the landmark DB (in memory) assigns the global ids.
+  auto db_params = stages::LandmarkDbParams::load(stack.process("landmark_db"), stack.robot);
+  db_params.map_file.clear();
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(db_params));
   for (const char* instance : {"frontend_forward", "frontend_backward"}) {
     replay.addStage(instance, stages::builtinStages().create(stack, instance));
   }
@@ -64,9 +69,12 @@ TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
   for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
     if (e.channel == "GROUND_TRUTH") truth.push_back(decode<vslam::ground_truth_pose_t>(e));
     if (e.channel == "LANDMARK_PROPOSAL") {
+      EXPECT_EQ(decode<vslam::landmark_update_t>(e).op, vslam::landmark_update_t::OP_PROPOSED);
+    }
+    if (e.channel == "LANDMARK_UPDATE") {
       const auto u = decode<vslam::landmark_update_t>(e);
-      EXPECT_EQ(u.op, vslam::landmark_update_t::OP_PROPOSED);
-      landmarks[u.landmark.landmark_id] = u.landmark;
+      if (u.op == vslam::landmark_update_t::OP_CREATED)
+        landmarks[u.landmark.landmark_id] = u.landmark;
     }
     if (e.channel == "VISUAL_MEASUREMENT")
       measurements.push_back(decode<vslam::visual_measurement_t>(e));

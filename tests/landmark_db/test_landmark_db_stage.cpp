@@ -1,0 +1,285 @@
+// The landmark DB stage over LCM's in-memory provider, in lock-step replay:
+//  - the protocol on a synthetic log (proposals from two cameras, a repeated
+//    and a malformed proposal, requests, statistics, summary);
+//  - on rendered frames: the forward and backward front-ends of
+//    config/vslam.yaml sharing one DB: every proposal answered with a global
+//    id, measurements carry global ids, each camera measures landmarks the
+//    other created, and the run is deterministic.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <set>
+#include <vslam/landmark_request_t.hpp>
+#include <vslam/landmark_summary_t.hpp>
+#include <vslam/landmark_update_t.hpp>
+#include <vslam/visual_measurement_t.hpp>
+
+#include "bus/lockstep_replay.hpp"
+#include "landmark_db_test_util.hpp"
+#include "sim/simulator.hpp"
+#include "stages/builtin_stages.hpp"
+#include "stages/landmark_db_stage.hpp"
+#include "support/test_logs.hpp"
+
+namespace fs = std::filesystem;
+using namespace vslam;
+using U = vslam::landmark_update_t;
+
+namespace {
+
+constexpr Utime kT0 = 1767225600LL * kMicrosPerSecond;
+
+template <class Msg>
+Msg decode(const vslam::test::RecordedEvent& e) {
+  Msg m;
+  EXPECT_EQ(m.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+            static_cast<int>(e.data.size()));
+  return m;
+}
+
+class LogWriter {
+ public:
+  explicit LogWriter(const fs::path& file) : log_(file.string(), "w") {}
+  template <class Msg>
+  void write(Utime t, const std::string& channel, const Msg& msg) {
+    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
+    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    lcm::LogEvent ev;
+    ev.eventnum = eventnum_++;
+    ev.timestamp = t;
+    ev.channel = channel;
+    ev.datalen = static_cast<int32_t>(buf.size());
+    ev.data = buf.data();
+    ASSERT_EQ(log_.writeEvent(&ev), 0);
+  }
+
+ private:
+  lcm::LogFile log_;
+  int64_t eventnum_ = 0;
+};
+
+U proposal(const std::string& camera, int64_t proposal_id, Utime t, uint32_t seed) {
+  const auto s = landmark_db::test::syntheticStructure(30, seed);
+  landmark_db::LandmarkInfo info;
+  info.camera = camera;
+  info.proposal_id = proposal_id;
+  info.created_utime = t;
+  U m{};
+  m.utime = t;
+  m.op = U::OP_PROPOSED;
+  stages::LandmarkDbStage::fillLandmark(info, &s, &m.landmark);
+  m.landmark.landmark_id = -1;
+  m.landmark.version = 0;
+  return m;
+}
+
+stages::LandmarkDbParams dbParams(const config::StackConfig& stack) {
+  auto p = stages::LandmarkDbParams::load(stack.process("landmark_db"), stack.robot);
+  p.map_file.clear();  // in memory: every run starts empty
+  return p;
+}
+
+}  // namespace
+
+TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_stage");
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  {
+    LogWriter log(dir / "in.lcmlog");
+    Utime t = kT0;
+    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 11, t, 1));
+    t += 1000;
+    log.write(t, "LANDMARK_PROPOSAL", proposal("backward", 11, t, 2));
+    t += 1000;
+    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 12, t, 3));
+    t += 1000;
+    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 11, kT0, 1));  // sent again
+    U bad = proposal("forward", 13, t, 4);
+    bad.landmark.points[3][1] = NAN;
+    t += 1000;
+    log.write(t, "LANDMARK_PROPOSAL", bad);
+    U truncated = proposal("forward", 14, t, 5);
+    truncated.landmark.descriptor_size = 64;
+    for (auto& d : truncated.landmark.descriptors) d.resize(64);
+    t += 1000;
+    log.write(t, "LANDMARK_PROPOSAL", truncated);
+    vslam::visual_measurement_t m{};
+    m.utime = t;
+    m.camera = "forward";
+    m.landmark_id = 2;
+    t += 1000;
+    log.write(t, "VISUAL_MEASUREMENT", m);
+    m.landmark_id = 777;  // unknown
+    t += 1000;
+    log.write(t, "VISUAL_MEASUREMENT", m);
+    vslam::landmark_request_t r{};
+    r.utime = t;
+    r.requester = "frontend_late";
+    r.database_id = "";
+    r.since_revision = 0;
+    t += 1000;
+    log.write(t, "LANDMARK_REQUEST", r);
+    r.requester = "frontend_ids";
+    r.landmark_ids = {3, 999};
+    r.num_ids = 2;
+    t += 1000;
+    log.write(t, "LANDMARK_REQUEST", r);
+    // Past a flush and a summary period.
+    vslam::visual_measurement_t later = m;
+    later.landmark_id = 1;
+    t += 2 * kMicrosPerSecond;
+    log.write(t, "VISUAL_MEASUREMENT", later);
+    t += 2 * kMicrosPerSecond;
+    log.write(t, "VISUAL_MEASUREMENT", later);
+    // A last event past the next flush (its timer runs before the event).
+    r.requester = "nobody";
+    r.landmark_ids = {999};
+    r.num_ids = 1;
+    t += 2 * kMicrosPerSecond;
+    log.write(t, "LANDMARK_REQUEST", r);
+  }
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  bus::LockstepReplay replay(options);
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+  replay.run();
+
+  std::vector<U> updates;
+  std::vector<vslam::landmark_summary_t> summaries;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel == "LANDMARK_UPDATE") updates.push_back(decode<U>(e));
+    if (e.channel == "LANDMARK_SUMMARY") summaries.push_back(decode<vslam::landmark_summary_t>(e));
+  }
+  ASSERT_GE(updates.size(), 8u);
+  // Three created, ids 1..3 in order, revisions 1..3, with the proposer's ids.
+  EXPECT_EQ(updates[0].op, U::OP_CREATED);
+  EXPECT_EQ(updates[0].landmark.landmark_id, 1);
+  EXPECT_EQ(updates[0].landmark.camera, "forward");
+  EXPECT_EQ(updates[0].landmark.proposal_id, 11);
+  EXPECT_EQ(updates[0].landmark.num_points, 30);
+  EXPECT_EQ(updates[0].revision, 1);
+  EXPECT_EQ(updates[1].landmark.landmark_id, 2);
+  EXPECT_EQ(updates[1].landmark.camera, "backward");
+  EXPECT_EQ(updates[2].landmark.landmark_id, 3);
+  EXPECT_EQ(updates[2].revision, 3);
+  // The repeated proposal: the same id again, as a snapshot (no new revision).
+  EXPECT_EQ(updates[3].op, U::OP_SNAPSHOT);
+  EXPECT_EQ(updates[3].landmark.landmark_id, 1);
+  EXPECT_EQ(updates[3].landmark.proposal_id, 11);
+  EXPECT_EQ(updates[3].revision, 3);
+  // The malformed ones: rejected, named by their proposal ids.
+  EXPECT_EQ(updates[4].op, U::OP_REJECTED);
+  EXPECT_EQ(updates[4].landmark.proposal_id, 13);
+  EXPECT_EQ(updates[5].op, U::OP_REJECTED);
+  EXPECT_EQ(updates[5].landmark.proposal_id, 14);
+  // Request since revision 0 from a stranger: all three, addressed to it.
+  std::vector<int64_t> late, by_id;
+  for (const auto& u : updates) {
+    if (u.op == U::OP_SNAPSHOT && u.requester == "frontend_late")
+      late.push_back(u.landmark.landmark_id);
+    if (u.op == U::OP_SNAPSHOT && u.requester == "frontend_ids")
+      by_id.push_back(u.landmark.landmark_id);
+  }
+  EXPECT_EQ(late, (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_EQ(by_id, (std::vector<int64_t>{3}));
+  // Statistics: landmark 2 measured once, 1 twice; stats-only updates after a flush.
+  std::map<int64_t, int> recognitions;
+  for (const auto& u : updates) {
+    if (u.op == U::OP_UPDATED) {
+      EXPECT_EQ(u.landmark.num_points, 0);
+      recognitions[u.landmark.landmark_id] = u.landmark.num_recognitions;
+    }
+  }
+  EXPECT_EQ(recognitions[2], 1);
+  EXPECT_EQ(recognitions[1], 2);
+  // Revisions of changes are consecutive.
+  int64_t last = 0;
+  for (const auto& u : updates) {
+    if (u.op == U::OP_SNAPSHOT || u.op == U::OP_REJECTED) continue;
+    EXPECT_EQ(u.revision, last + 1);
+    last = u.revision;
+  }
+  ASSERT_FALSE(summaries.empty());
+  EXPECT_EQ(summaries.back().num_stored, 3);
+  EXPECT_EQ(summaries.back().landmark_ids, (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_EQ(summaries.back().revision, last);
+  EXPECT_EQ(summaries.back().database_id, updates[0].database_id);
+  fs::remove_all(dir);
+}
+
+// Both front-ends and one DB on rendered frames of the apartment.
+TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_shared");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
+  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
+  scenario.duration_s = 60;
+  {
+    sim::Simulator simulator(scenario, stack.robot, kT0);
+    sim::LogFileSink sink((dir / "sim.lcmlog").string());
+    while (simulator.step(sink)) {
+    }
+  }
+  const auto runOnce = [&](const fs::path& out) {
+    bus::ReplayOptions options;
+    options.input = dir / "sim.lcmlog";
+    options.output = out;
+    options.keep_inputs = false;
+    bus::LockstepReplay replay(options);
+    replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+    for (const char* instance : {"frontend_forward", "frontend_backward"}) {
+      replay.addStage(instance, stages::builtinStages().create(stack, instance));
+    }
+    replay.run();
+  };
+  runOnce(dir / "run1.lcmlog");
+
+  std::map<int64_t, std::string> creator;  // global id -> camera
+  std::set<std::pair<std::string, int64_t>> proposed, answered;
+  std::vector<vslam::visual_measurement_t> measurements;
+  for (const auto& e : vslam::test::readLog(dir / "run1.lcmlog")) {
+    if (e.channel == "LANDMARK_PROPOSAL") {
+      const auto u = decode<U>(e);
+      EXPECT_EQ(u.op, U::OP_PROPOSED);
+      EXPECT_EQ(u.landmark.landmark_id, -1);
+      proposed.insert({u.landmark.camera, u.landmark.proposal_id});
+    }
+    if (e.channel == "LANDMARK_UPDATE") {
+      const auto u = decode<U>(e);
+      if (u.op == U::OP_CREATED) {
+        creator[u.landmark.landmark_id] = u.landmark.camera;
+        answered.insert({u.landmark.camera, u.landmark.proposal_id});
+      }
+    }
+    if (e.channel == "VISUAL_MEASUREMENT") {
+      measurements.push_back(decode<vslam::visual_measurement_t>(e));
+    }
+  }
+  ASSERT_GE(creator.size(), 4u);
+  EXPECT_EQ(proposed, answered) << "every proposal gets its global id";
+  // Global ids 1..N.
+  EXPECT_EQ(creator.begin()->first, 1);
+  EXPECT_EQ(creator.rbegin()->first, static_cast<int64_t>(creator.size()));
+  ASSERT_GE(measurements.size(), 50u);
+  std::map<std::string, int> cross;  // measuring camera -> measurements of the other's landmarks
+  for (const auto& m : measurements) {
+    ASSERT_TRUE(creator.count(m.landmark_id))
+        << "measurement of landmark " << m.landmark_id << " the DB never created";
+    if (creator[m.landmark_id] != m.camera) ++cross[m.camera];
+  }
+  EXPECT_GT(cross["forward"], 0) << "forward camera never measured a backward landmark";
+  EXPECT_GT(cross["backward"], 0) << "backward camera never measured a forward landmark";
+  RecordProperty("landmarks", static_cast<int>(creator.size()));
+  RecordProperty("measurements", static_cast<int>(measurements.size()));
+  RecordProperty("cross_forward", cross["forward"]);
+  RecordProperty("cross_backward", cross["backward"]);
+
+  // Deterministic: a second run gives the same bytes.
+  runOnce(dir / "run2.lcmlog");
+  EXPECT_EQ(vslam::test::readFileBytes(dir / "run1.lcmlog"),
+            vslam::test::readFileBytes(dir / "run2.lcmlog"));
+  fs::remove_all(dir);
+}
