@@ -19,6 +19,8 @@ const char* toString(MeasurementUse u) {
       return "older than the odometry history";
     case MeasurementUse::kTooNew:
       return "newer than the newest odometry";
+    case MeasurementUse::kThinned:
+      return "too soon after the landmark's last used measurement";
   }
   return "?";
 }
@@ -28,6 +30,8 @@ void BackendParams::validate() const {
   prefilter.validate();
   if (!(max_step_m > 0) || !(max_step_rad > 0))
     throw std::invalid_argument("backend: max_step_m and max_step_rad must be > 0");
+  if (!(landmark_min_interval_s >= 0))
+    throw std::invalid_argument("backend: landmark_min_interval_s must be >= 0");
   if (!(max_measurement_age_s > 0) || !(max_measurement_lead_s >= 0))
     throw std::invalid_argument(
         "backend: max_measurement_age_s must be > 0 and max_measurement_lead_s >= 0");
@@ -112,6 +116,13 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   MeasurementUse why = MeasurementUse::kUsed;
   const std::optional<Pose2> then = odometryAt(m.utime, &why);
   if (!then) return finish(why);
+  if (params_.landmark_min_interval_s > 0) {
+    const auto last = last_used_.find(m.landmark_id);
+    const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
+    if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us)
+      return finish(MeasurementUse::kThinned);
+    last_used_[m.landmark_id] = m.utime;
+  }
   // Move the measurement to the particles' time: y_now = y (+) D.
   const Pose2 d = then->between(history_.back().pose);
   const Pose2& y = m.relative;

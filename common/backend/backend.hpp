@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <unordered_map>
 
 #include "backend/particle_filter.hpp"
 #include "backend/prefilter.hpp"
@@ -37,6 +38,12 @@ struct BackendParams {
   double max_step_rad = M_PI / 2;
   double max_measurement_age_s = 5.0;   // odometry history kept to align measurements
   double max_measurement_lead_s = 0.5;  // newer than the newest odometry by more: not used
+  // Measurements of one landmark closer in time than this to the last one
+  // used are not used (kThinned): a landmark measured at camera rate gives
+  // errors that are strongly correlated (they share the landmark's own 3-D
+  // error), and treating them as independent makes the weights and the
+  // landmark filters overconfident. 0: use every measurement.
+  double landmark_min_interval_s = 0.0;
 
   void validate() const;
 };
@@ -58,8 +65,9 @@ enum class MeasurementUse {
   kNoOdometry,       // no odometry yet to place it in time
   kTooOld,           // older than the odometry history
   kTooNew,           // newer than the newest odometry by more than max_measurement_lead_s
+  kThinned,          // within landmark_min_interval_s of the landmark's last used measurement
 };
-constexpr int kNumMeasurementUse = 6;
+constexpr int kNumMeasurementUse = 7;
 const char* toString(MeasurementUse u);
 
 struct MeasurementResult {
@@ -101,6 +109,8 @@ class Backend {
   ParticleFilter filter_;
   OdometryIncrements increments_;
   std::deque<OdometryReading> history_;  // accepted readings, oldest first
+  std::unordered_map<int64_t, int64_t>
+      last_used_;  // landmark id -> utime of its last used measurement
   BackendCounters counters_;
 };
 

@@ -69,7 +69,12 @@ void FilterParams::validate() const {
   require(kidnap.detect_agreement >= 0 && kidnap.detect_agreement <= 1 &&
               kidnap.recover_agreement >= 0 && kidnap.recover_agreement <= 1,
           "kidnap agreements must be in [0, 1]");
-  require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1, "kidnap counts must be >= 1");
+  require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1 && kidnap.detect_landmarks >= 1,
+          "kidnap counts must be >= 1");
+  require(outlier.probability >= 0 && outlier.probability < 1,
+          "outlier probability must be in [0, 1)");
+  require(outlier.area_m2 > 0 && outlier.gate_mahalanobis_sq > 0,
+          "outlier area and gate must be > 0");
   require(num_threads >= 0, "num_threads must be >= 0");
   require(grain_size >= 1, "grain_size must be >= 1");
   require(initial_pose.isFinite(), "initial_pose must be finite");
@@ -171,6 +176,19 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const double lse = logSumExp(log_w.data(), m);
   for (double& v : log_w) v -= lse;
 
+  // Robust likelihood (OutlierParams): log of (1 - eps) N + eps u, and
+  // whether the Kalman filter may use the measurement.
+  const OutlierParams& op = params_.outlier;
+  const bool robust = op.probability > 0;
+  const double log_inlier = robust ? std::log1p(-op.probability) : 0.0;
+  const double log_floor =
+      robust ? std::log(op.probability) - std::log(op.area_m2 * 2 * M_PI) : 0.0;
+  auto robustLogLikelihood = [&](const Innovation& in) {
+    if (!robust) return in.log_likelihood;
+    const double a = log_inlier + in.log_likelihood, b = log_floor;
+    return std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
+  };
+
   // (1) How well does each particle, as it is, explain the measurement?
   std::vector<double> d2(m);
   forEachParticle([&](size_t i) {
@@ -197,11 +215,23 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       all_dual = true;
     }
   } else {
-    low_count_ = agreement < kp.detect_agreement ? low_count_ + 1 : 0;
-    if (low_count_ >= kp.detect_count) {
+    // A run of inconsistent measurements, ended by a consistent one; it
+    // counts as a kidnapping only when it spans several distinct landmarks.
+    if (agreement < kp.detect_agreement) {
+      ++low_count_;
+      if (std::find(low_landmarks_.begin(), low_landmarks_.end(), obs.landmark_id) ==
+          low_landmarks_.end())
+        low_landmarks_.push_back(obs.landmark_id);
+    } else if (agreement >= kp.recover_agreement) {
+      low_count_ = 0;
+      low_landmarks_.clear();
+    }
+    if (low_count_ >= kp.detect_count &&
+        static_cast<int>(low_landmarks_.size()) >= kp.detect_landmarks) {
       kidnapped_ = true;
       rep.kidnap_detected = true;
       low_count_ = 0;
+      low_landmarks_.clear();
       recover_count_ = 0;
       all_dual = true;
     }
@@ -253,6 +283,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   if (n_dual > 0) chol_r = r.llt().matrixL();
 
   // (3) Sample, weight, and update each particle's Kalman filter of the landmark.
+  std::vector<char> outlier(m, 0);
   forEachParticle([&](size_t i) {
     Particle& p = particles_[i];
     LandmarkEstimate& lm = p.map.mutableSlot(slot);
@@ -264,22 +295,30 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       p.dual = false;
     }
     const Innovation in = innovation(lm, p.pose, y, r);
+    const double lp_y = robustLogLikelihood(in);  // target: robust likelihood
     if (all_dual) {
       p.log_weight = 0;  // kidnapped: uniform importance factors (paper 6.2)
     } else if (n_dual == 0) {
-      p.log_weight = log_w[i] + in.log_likelihood;
+      p.log_weight = log_w[i] + lp_y;
     } else {
+      // The proposal's dual component is the Gaussian the dual particles
+      // were drawn from; the target's likelihood is the robust one.
       const double lp_motion = logMotion(p);
-      const double lp_y = in.log_likelihood;
-      const double a = log_1_rho + lp_motion, b = log_rho + lp_y;
+      const double a = log_1_rho + lp_motion, b = log_rho + in.log_likelihood;
       const double log_g = std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
       p.log_weight = log_w[i] + lp_motion + lp_y - log_g;
     }
-    kalmanUpdate(lm, in, r);
+    // Gate: an outlier for this particle leaves its landmark filter alone.
+    if (robust && in.mahalanobis_sq > op.gate_mahalanobis_sq) {
+      outlier[i] = 1;
+    } else {
+      kalmanUpdate(lm, in, r);
+    }
     p.anchor = p.pose;
   });
   since_update_ = PoseWithCovariance();
 
+  for (char o : outlier) rep.num_outliers += o;
   normalize();
   rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
   rep.num_dual = static_cast<int>(n_dual);

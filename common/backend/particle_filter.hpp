@@ -53,14 +53,35 @@ struct MixtureParams {
 // Kidnap detection (paper 6.2: "if a kidnapping scenario is detected or
 // suspected, then one should generate only dual particles, and compute the
 // importance factors from a uniform distribution").
+// Robustness to outliers that pass the pre-filter (aliased landmarks: a
+// landmark recognised at a wrong place gives streams of mutually consistent
+// measurements that are metres off). The measurement likelihood is a
+// mixture of the model's Gaussian and a uniform outlier density,
+//   p(y | s, m) = (1 - eps) N(nu; 0, S) + eps / (area * 2 pi),
+// so a measurement far from a particle's landmark estimate costs every such
+// particle the same constant instead of collapsing the weights onto whichever
+// particle happens to lie nearest the wrong place; and a particle's landmark
+// filter is updated only when the innovation passes the Mahalanobis gate,
+// so outliers do not drag the map.
+struct OutlierParams {
+  double probability = 0.05;           // eps; 0: plain Gaussian likelihood, no gate
+  double area_m2 = 25.0;               // support of the uniform outlier density in x, y
+  double gate_mahalanobis_sq = 16.27;  // chi^2_3 at 99.9%: larger innovations do not update
+};
+
 struct KidnapParams {
   // Agreement a = E_w[exp(-d^2/2)] / 2^-1.5 (d^2: Mahalanobis distance of the
   // innovation; 2^-1.5 is its expectation for consistent 3-D Gaussians), in
   // [0, 1]. detect_count measurements in a row with a < detect_agreement
   // declare a kidnapping; while kidnapped, recover_count measurements in a
   // row with a >= recover_agreement end it.
+  // A kidnapping also needs inconsistent measurements of at least
+  // detect_landmarks distinct landmarks in the run of inconsistent ones (any
+  // consistent measurement, a >= recover_agreement, ends the run): one
+  // aliased landmark's stream, however long, is not a kidnapping.
   double detect_agreement = 1e-3;
   int detect_count = 3;
+  int detect_landmarks = 2;
   double recover_agreement = 0.1;
   int recover_count = 2;
 };
@@ -76,6 +97,7 @@ struct FilterParams {
   // Resample when the effective sample size falls below this fraction of the particles.
   double resample_ess_fraction = 0.5;
   MixtureParams mixture;
+  OutlierParams outlier;
   KidnapParams kidnap;
   uint64_t seed = 1;
   int num_threads = 0;  // TBB threads for particle updates; 0: one per core
@@ -117,6 +139,7 @@ struct UpdateReport {
   double dual_ratio = 0;  // num_dual / particles
   double ess = 0;         // effective sample size after weighting, before resampling
   bool resampled = false;
+  int num_outliers = 0;          // particles for which the measurement failed the gate
   bool kidnap_detected = false;  // this measurement started a kidnapped period
   bool recovered = false;        // this measurement ended one
 };
@@ -184,6 +207,7 @@ class ParticleFilter {
   uint64_t step_ = 0;  // counts predict/update/resample calls: the random streams' step
   bool kidnapped_ = false;
   int low_count_ = 0;
+  std::vector<int64_t> low_landmarks_;  // distinct landmarks in the current inconsistent run
   int recover_count_ = 0;
   double smoothed_agreement_ = 1;
   double last_dual_ratio_ = 0;

@@ -57,6 +57,7 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   b.max_step_rad = degToRad(node.getDouble("max_step_deg", 90.0, InRange{1, 180}));
   b.max_measurement_age_s = node.getDouble("max_measurement_age_s", 5.0, InRange{0.01, 600});
   b.max_measurement_lead_s = node.getDouble("max_measurement_lead_s", 0.5, InRange{0, 60});
+  b.landmark_min_interval_s = node.getDouble("landmark_min_interval_s", 0.0, InRange{0, 60});
   p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
   p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
 
@@ -81,6 +82,14 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
         degToRad(mx.getDouble("motion_min_sigma_theta_deg", 1.15, InRange{1e-3, 180}));
     mx.requireAllKeysUsed();
   }
+  if (node.has("outlier")) {
+    const config::ConfigNode ol = node.child("outlier");
+    backend::OutlierParams& o = f.outlier;
+    o.probability = ol.getDouble("probability", 0.05, InRange{0, 0.999});
+    o.area_m2 = ol.getDouble("area_m2", 25.0, InRange{1e-3, 1e9});
+    o.gate_mahalanobis_sq = ol.getDouble("gate_mahalanobis_sq", 16.27, InRange{1e-3, 1e9});
+    ol.requireAllKeysUsed();
+  }
   if (node.has("kidnap")) {
     const config::ConfigNode kd = node.child("kidnap");
     backend::KidnapParams& k = f.kidnap;
@@ -88,6 +97,7 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     k.detect_count = static_cast<int>(kd.getInt("detect_count", 3, InRange{1, 1000}));
     k.recover_agreement = kd.getDouble("recover_agreement", 0.1, InRange{0, 1});
     k.recover_count = static_cast<int>(kd.getInt("recover_count", 2, InRange{1, 1000}));
+    k.detect_landmarks = static_cast<int>(kd.getInt("detect_landmarks", 2, InRange{1, 1000}));
     kd.requireAllKeysUsed();
   }
   p.odometry_channel = robot.channels.odometry;
@@ -209,6 +219,8 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                                       msg.camera + " has non-finite or negative fields");
       }
       break;
+    case MeasurementUse::kThinned:
+      break;
     case MeasurementUse::kInvalidLandmark:
       logLimited(kLogLandmark, "measurement seq ", msg.seq, " of ", msg.camera,
                  ": invalid landmark id ", msg.landmark_id, "; not used");
@@ -312,6 +324,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
                                  c.use[static_cast<int>(MeasurementUse::kTooOld)] +
                                  c.use[static_cast<int>(MeasurementUse::kTooNew)]),
              "count");
+  report.add("measurements_thinned",
+             static_cast<double>(c.use[static_cast<int>(MeasurementUse::kThinned)]), "count");
   report.add("landmarks", static_cast<double>(backend_.filter().numLandmarks()), "count");
   report.add("particles", static_cast<double>(backend_.filter().particles().size()), "count");
   const backend::PoseEstimate e = backend_.filter().estimate();
