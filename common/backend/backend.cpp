@@ -30,6 +30,8 @@ void BackendParams::validate() const {
   prefilter.validate();
   if (!(max_step_m > 0) || !(max_step_rad > 0))
     throw std::invalid_argument("backend: max_step_m and max_step_rad must be > 0");
+  if (!(measurement_sigma_xy_per_m >= 0) || !(measurement_sigma_theta_rad_per_m >= 0))
+    throw std::invalid_argument("backend: measurement sigma growth rates must be >= 0");
   if (!(landmark_min_interval_s >= 0))
     throw std::invalid_argument("backend: landmark_min_interval_s must be >= 0");
   if (!(max_measurement_age_s > 0) || !(max_measurement_lead_s >= 0))
@@ -138,7 +140,11 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   jd << c, -s, 0,      //
       s, c, 0,         //
       0, 0, 1;
-  const Eigen::Matrix3d r = params_.filter.measurementCovariance();
+  Eigen::Matrix3d r = params_.filter.measurementCovariance();
+  const double dist = std::hypot(y.x, y.y);
+  r(0, 0) += std::pow(params_.measurement_sigma_xy_per_m * dist, 2);
+  r(1, 1) += std::pow(params_.measurement_sigma_xy_per_m * dist, 2);
+  r(2, 2) += std::pow(params_.measurement_sigma_theta_rad_per_m * dist, 2);
   obs.covariance =
       jy * r * jy.transpose() + jd * params_.filter.motion.stepCovariance(d) * jd.transpose();
 

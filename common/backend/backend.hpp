@@ -44,6 +44,14 @@ struct BackendParams {
   // error), and treating them as independent makes the weights and the
   // landmark filters overconfident. 0: use every measurement.
   double landmark_min_interval_s = 0.0;
+  // Sigma_vis growing with the distance d = |(y_x, y_y)| from the landmark's
+  // creation pose: sigma_xy = sqrt(s0^2 + (k d)^2), likewise for theta. A
+  // landmark's 3-D points carry depth errors (triangulated over a short
+  // odometry baseline), so the measured pose errs roughly in proportion to
+  // how far the robot is from where the landmark was built. 0: the paper's
+  // constant Sigma_vis.
+  double measurement_sigma_xy_per_m = 0.0;
+  double measurement_sigma_theta_rad_per_m = 0.0;
 
   void validate() const;
 };

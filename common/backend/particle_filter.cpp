@@ -215,14 +215,14 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       all_dual = true;
     }
   } else {
-    // A run of inconsistent measurements, ended by a consistent one; it
-    // counts as a kidnapping only when it spans several distinct landmarks.
+    // A run of inconsistent measurements in a row; it counts as a
+    // kidnapping only when it spans several distinct landmarks.
     if (agreement < kp.detect_agreement) {
       ++low_count_;
       if (std::find(low_landmarks_.begin(), low_landmarks_.end(), obs.landmark_id) ==
           low_landmarks_.end())
         low_landmarks_.push_back(obs.landmark_id);
-    } else if (agreement >= kp.recover_agreement) {
+    } else {
       low_count_ = 0;
       low_landmarks_.clear();
     }

@@ -76,9 +76,8 @@ struct KidnapParams {
   // declare a kidnapping; while kidnapped, recover_count measurements in a
   // row with a >= recover_agreement end it.
   // A kidnapping also needs inconsistent measurements of at least
-  // detect_landmarks distinct landmarks in the run of inconsistent ones (any
-  // consistent measurement, a >= recover_agreement, ends the run): one
-  // aliased landmark's stream, however long, is not a kidnapping.
+  // detect_landmarks distinct landmarks in the run of inconsistent ones in a
+  // row: one aliased landmark's stream, however long, is not a kidnapping.
   double detect_agreement = 1e-3;
   int detect_count = 3;
   int detect_landmarks = 2;

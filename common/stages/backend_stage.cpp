@@ -57,6 +57,10 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   b.max_step_rad = degToRad(node.getDouble("max_step_deg", 90.0, InRange{1, 180}));
   b.max_measurement_age_s = node.getDouble("max_measurement_age_s", 5.0, InRange{0.01, 600});
   b.max_measurement_lead_s = node.getDouble("max_measurement_lead_s", 0.5, InRange{0, 60});
+  b.measurement_sigma_xy_per_m =
+      node.getDouble("measurement_sigma_xy_per_m", 0.0, InRange{0, 10.0});
+  b.measurement_sigma_theta_rad_per_m =
+      degToRad(node.getDouble("measurement_sigma_theta_deg_per_m", 0.0, InRange{0, 90.0}));
   b.landmark_min_interval_s = node.getDouble("landmark_min_interval_s", 0.0, InRange{0, 60});
   p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
   p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});

@@ -276,3 +276,48 @@ TEST(BackendMeasurements, OutsideTheOdometryHistoryOrBeforeAnyOdometry) {
   EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kInvalidLandmark)], 1);
   EXPECT_EQ(c.use[static_cast<int>(MeasurementUse::kUsed)], 1);
 }
+
+TEST(BackendMeasurements, ThinnedToOnePerLandmarkPerInterval) {
+  BackendParams p = params(5, 0.0);
+  p.landmark_min_interval_s = 0.5;
+  Backend be(p);
+  for (int64_t s = 0; s <= 250; ++s) be.addOdometry(reading(s));  // 0 .. 5 s
+  MeasurementInput m;
+  m.landmark_id = 1;
+  m.relative = {0.2, 0, 0};
+  m.proj_err_rms_px = 1;
+  m.num_points = 30;
+  m.utime = at(3.0);
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kUsed);
+  m.utime = at(3.2);
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kThinned);
+  m.landmark_id = 2;  // another landmark is not affected
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kUsed);
+  m.landmark_id = 1;
+  m.utime = at(3.5);  // the interval since the last used one (3.0), not the thinned one
+  EXPECT_EQ(be.addMeasurement(m).use, MeasurementUse::kUsed);
+  EXPECT_EQ(be.counters().use[static_cast<int>(MeasurementUse::kThinned)], 1);
+}
+
+TEST(BackendMeasurements, MeasurementCovarianceGrowsWithDistance) {
+  // Two backends, one with growth; a far measurement of a landmark whose
+  // particles disagree with it by 20 cm: the growing covariance is less sure.
+  auto agreementFor = [](double per_m) {
+    BackendParams p = params(20, 0.0);
+    p.measurement_sigma_xy_per_m = per_m;
+    p.filter.outlier.probability = 0;
+    Backend be(p);
+    for (int64_t s = 0; s <= 50; ++s) be.addOdometry(reading(s));
+    MeasurementInput m;
+    m.landmark_id = 1;
+    m.relative = {3.0, 0, 0};
+    m.proj_err_rms_px = 1;
+    m.num_points = 30;
+    m.utime = at(0.9);
+    be.addMeasurement(m);
+    m.relative = {3.2, 0, 0};
+    m.utime = at(0.95);
+    return be.addMeasurement(m).update.agreement;
+  };
+  EXPECT_GT(agreementFor(0.1), agreementFor(0.0));
+}
