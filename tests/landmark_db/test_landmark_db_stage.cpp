@@ -216,7 +216,7 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   const fs::path source(VSLAM_SOURCE_DIR);
   const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
   sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
-  scenario.duration_s = 60;
+  scenario.duration_s = 80;  // the forward camera first measures a backward landmark at ~68 s
   {
     sim::Simulator simulator(scenario, stack.robot, kT0);
     sim::LogFileSink sink((dir / "sim.lcmlog").string());
