@@ -1,128 +1,330 @@
 #include "frontend/landmark_index.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
 #include <stdexcept>
-#include <unordered_map>
+#include <string>
+
+#include "frontend/descriptor_distance.hpp"
 
 namespace vslam::frontend {
 
+cv::Mat toDescriptorsU8(const cv::Mat& descriptors) {
+  if (descriptors.empty()) return cv::Mat(0, kDescriptorBytes, CV_8U);
+  if (descriptors.cols != kDescriptorBytes ||
+      (descriptors.type() != CV_32F && descriptors.type() != CV_8U)) {
+    throw std::invalid_argument("descriptors must be n x 128, CV_32F or CV_8U");
+  }
+  cv::Mat out;
+  if (descriptors.type() == CV_8U) {
+    out = descriptors.clone();  // continuous
+  } else {
+    descriptors.convertTo(out, CV_8U);  // rounds and saturates to 0..255
+  }
+  return out;
+}
+
+namespace {
+
+// Size of the glibc malloc chunk holding a request of `bytes` (what
+// mallinfo2() counts): request + 8 rounded up to 16, at least 32.
+size_t heapBlock(size_t bytes) {
+  if (bytes == 0) return 0;
+  return std::max<size_t>(32, (bytes + 8 + 15) / 16 * 16);
+}
+
+}  // namespace
+
 LandmarkIndex::LandmarkIndex(const RecognitionParams& params) : params_(params) {
   if (!(params_.ratio > 0 && params_.ratio <= 1) || params_.min_matches < 3 ||
-      params_.neighbours < 2) {
+      params_.max_candidates < 1 || params_.exhaustive_max_landmarks < 0 || params_.min_votes < 1 ||
+      params_.search_checks < 1 || !(params_.vote_ratio > 0 && params_.vote_ratio <= 1) ||
+      params_.max_overlap < 1 || params_.vocabulary_min_descriptors < 1 ||
+      params_.vocabulary_max_training < 1 ||
+      !(params_.vocabulary_retrain_growth == 0 || params_.vocabulary_retrain_growth > 1)) {
     throw std::invalid_argument(
-        "RecognitionParams: ratio in (0, 1], min_matches >= 3, neighbours >= 2");
+        "RecognitionParams: ratio in (0, 1], min_matches >= 3, max_candidates >= 1, "
+        "min_votes >= 1, search_checks >= 1, vote_ratio in (0, 1], max_overlap >= 1, "
+        "exhaustive_max_landmarks >= 0, vocabulary_min_descriptors >= 1, "
+        "vocabulary_max_training >= 1, vocabulary_retrain_growth 0 or > 1");
+  }
+  if (params_.vocabulary.branching < 2 || params_.vocabulary.max_depth < 1 ||
+      params_.vocabulary.min_leaf_descriptors < 1 || params_.vocabulary.kmeans_iterations < 1) {
+    throw std::invalid_argument("RecognitionParams: invalid vocabulary parameters");
   }
 }
 
 LandmarkIndex::~LandmarkIndex() = default;
 
 void LandmarkIndex::add(LandmarkModel landmark) {
-  if (landmark.descriptors.type() != CV_32F ||
-      landmark.descriptors.rows != static_cast<int>(landmark.points_robot.size())) {
+  if (landmark.descriptors.rows != static_cast<int>(landmark.points_robot.size()) ||
+      (landmark.descriptors.type() != CV_32F && landmark.descriptors.type() != CV_8U) ||
+      (landmark.descriptors.rows > 0 && landmark.descriptors.cols != kDescriptorBytes)) {
     throw std::invalid_argument("landmark " + std::to_string(landmark.id) +
-                                ": needs one CV_32F descriptor row per point");
+                                ": needs one CV_32F or CV_8U 128-value descriptor row per point");
   }
-  const int64_t id = landmark.id;
-  landmarks_[id] = std::move(landmark);
-  dirty_ = true;
+  if (landmark.id < 0) {
+    throw std::invalid_argument("landmark ids must be >= 0, got " + std::to_string(landmark.id));
+  }
+  landmark.descriptors = toDescriptorsU8(landmark.descriptors);
+  landmark.points_robot.shrink_to_fit();
+  remove(landmark.id);
+  uint32_t slot;
+  if (!free_slots_.empty()) {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  } else {
+    slot = static_cast<uint32_t>(entries_.size());
+    entries_.emplace_back();
+  }
+  slot_of_[landmark.id] = slot;
+  num_descriptors_ += static_cast<size_t>(landmark.descriptors.rows);
+  entries_[slot].model = std::move(landmark);
+  indexWords(slot);
+  maybeTrain();
 }
 
 bool LandmarkIndex::remove(int64_t id) {
-  const bool removed = landmarks_.erase(id) > 0;
-  dirty_ = dirty_ || removed;
-  return removed;
-}
-
-size_t LandmarkIndex::numDescriptors() const {
-  size_t n = 0;
-  for (const auto& [id, lm] : landmarks_) n += static_cast<size_t>(lm.descriptors.rows);
-  return n;
+  const auto it = slot_of_.find(id);
+  if (it == slot_of_.end()) return false;
+  const uint32_t slot = it->second;
+  slot_of_.erase(it);
+  unindexWords(slot);
+  Entry& e = entries_[slot];
+  num_descriptors_ -= static_cast<size_t>(e.model.descriptors.rows);
+  e = Entry{};  // frees its storage
+  free_slots_.push_back(slot);
+  return true;
 }
 
 const LandmarkModel* LandmarkIndex::find(int64_t id) const {
-  const auto it = landmarks_.find(id);
-  return it == landmarks_.end() ? nullptr : &it->second;
+  const auto it = slot_of_.find(id);
+  return it == slot_of_.end() ? nullptr : &entries_[it->second].model;
 }
 
-void LandmarkIndex::rebuild() {
-  dirty_ = false;
-  index_.reset();
-  owner_.clear();
-  std::vector<cv::Mat> blocks;
-  for (const auto& [id, lm] : landmarks_) {
-    blocks.push_back(lm.descriptors);
-    for (int i = 0; i < lm.descriptors.rows; ++i) owner_.emplace_back(id, i);
+void LandmarkIndex::indexWords(uint32_t slot) {
+  Entry& e = entries_[slot];
+  e.words.clear();
+  if (vocabulary_.empty()) {
+    e.words.shrink_to_fit();
+    return;
   }
-  if (owner_.empty()) return;
-  cv::vconcat(blocks, all_descriptors_);
-  index_ = std::make_unique<cv::flann::Index>(all_descriptors_,
-                                              cv::flann::KDTreeIndexParams(params_.kdtree_trees));
+  const cv::Mat& d = e.model.descriptors;
+  e.words.resize(static_cast<size_t>(d.rows));
+  for (int i = 0; i < d.rows; ++i) {
+    const uint8_t* row = d.ptr<uint8_t>(i);
+    const uint32_t w = vocabulary_.quantize(row);
+    e.words[static_cast<size_t>(i)] = w;
+    Posting& p = inverted_[w];
+    p.points.push_back({slot, static_cast<uint32_t>(i)});
+    p.descriptors.insert(p.descriptors.end(), row, row + kDescriptorBytes);
+  }
+  e.words.shrink_to_fit();
 }
 
-std::vector<Recognition> LandmarkIndex::recognize(const Features& frame) {
-  if (dirty_) rebuild();
-  std::vector<Recognition> out;
-  if (!index_ || frame.descriptors.rows == 0) return out;
-  const int k = std::min<int>(params_.neighbours, static_cast<int>(owner_.size()));
-  if (k < 1) return out;
-  cv::Mat indices, dists;  // squared L2 distances
-  index_->knnSearch(frame.descriptors, indices, dists, k,
-                    cv::flann::SearchParams(params_.kdtree_checks));
+void LandmarkIndex::unindexWords(uint32_t slot) {
+  Entry& e = entries_[slot];
+  for (size_t i = 0; i < e.words.size(); ++i) {
+    Posting& p = inverted_[e.words[i]];
+    for (size_t k = 0; k < p.points.size(); ++k) {
+      if (p.points[k].slot != slot || p.points[k].point != i) continue;
+      // Swap with the last point of the word (and its descriptor).
+      const size_t last = p.points.size() - 1;
+      p.points[k] = p.points[last];
+      std::copy(p.descriptors.begin() + static_cast<std::ptrdiff_t>(last * kDescriptorBytes),
+                p.descriptors.end(),
+                p.descriptors.begin() + static_cast<std::ptrdiff_t>(k * kDescriptorBytes));
+      p.points.pop_back();
+      p.descriptors.resize(last * kDescriptorBytes);
+      if (p.points.empty()) p = Posting{};  // release an emptied word's storage
+      break;
+    }
+  }
+  e.words.clear();
+}
 
-  // Per landmark: point -> (frame feature, distance) of its best match.
-  struct Match {
+void LandmarkIndex::maybeTrain() {
+  if (!auto_train_) return;
+  const bool first = vocabulary_.empty() && num_descriptors_ >= params_.vocabulary_min_descriptors;
+  const bool grown =
+      !vocabulary_.empty() && params_.vocabulary_retrain_growth > 0 &&
+      static_cast<double>(num_descriptors_) >=
+          params_.vocabulary_retrain_growth * static_cast<double>(descriptors_at_training_);
+  if (first || grown) trainVocabulary();
+}
+
+void LandmarkIndex::trainVocabulary() {
+  // Training set: every descriptor, or a uniform subsample (deterministic).
+  std::vector<const uint8_t*> rows;
+  rows.reserve(num_descriptors_);
+  for (const Entry& e : entries_) {
+    for (int i = 0; i < e.model.descriptors.rows; ++i)
+      rows.push_back(e.model.descriptors.ptr<uint8_t>(i));
+  }
+  if (rows.size() > params_.vocabulary_max_training) {
+    std::mt19937 rng(params_.vocabulary.seed);
+    for (size_t i = 0; i < params_.vocabulary_max_training; ++i) {
+      std::swap(rows[i], rows[std::uniform_int_distribution<size_t>(i, rows.size() - 1)(rng)]);
+    }
+    rows.resize(params_.vocabulary_max_training);
+  }
+  descriptors_at_training_ = num_descriptors_;
+  if (rows.empty()) {
+    setVocabulary(VocabularyTree{});
+    auto_train_ = true;
+    return;
+  }
+  cv::Mat training(static_cast<int>(rows.size()), kDescriptorBytes, CV_8U);
+  for (size_t i = 0; i < rows.size(); ++i)
+    std::copy(rows[i], rows[i] + kDescriptorBytes, training.ptr<uint8_t>(static_cast<int>(i)));
+  VocabularyTree v = VocabularyTree::train(training, params_.vocabulary);
+  training.release();
+  const bool auto_train = auto_train_;
+  setVocabulary(std::move(v));
+  auto_train_ = auto_train;
+}
+
+void LandmarkIndex::setVocabulary(VocabularyTree vocabulary) {
+  auto_train_ = false;
+  vocabulary_ = std::move(vocabulary);
+  inverted_.clear();
+  inverted_.shrink_to_fit();
+  inverted_.resize(vocabulary_.numWords());
+  for (uint32_t slot = 0; slot < entries_.size(); ++slot) {
+    if (entries_[slot].model.id >= 0) indexWords(slot);
+  }
+}
+
+std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
+                                                  RecognitionStats* stats) const {
+  RecognitionStats local;
+  RecognitionStats& st = stats ? *stats : local;
+  st = RecognitionStats{};
+  if (frame.descriptors.rows == 0 || slot_of_.empty()) return {};
+  const cv::Mat frame_u8 = toDescriptorsU8(frame.descriptors);
+
+  std::vector<uint32_t> slots;
+  if (vocabulary_.empty() || size() <= static_cast<size_t>(params_.exhaustive_max_landmarks)) {
+    st.exhaustive = true;
+    for (const auto& [id, slot] : slot_of_) slots.push_back(slot);
+    std::sort(slots.begin(), slots.end());
+  } else {
+    // Votes: each frame descriptor searches the inverted file and votes for
+    // the landmarks whose nearest point it found is nearer than vote_ratio
+    // times the background (the (max_overlap + 1)-th landmark's nearest).
+    std::vector<uint16_t> votes(entries_.size(), 0);
+    std::vector<uint32_t> voted;
+    std::vector<std::pair<uint32_t, uint32_t>> nearest;  // (slot, squared distance)
+    const double vote_ratio2 = params_.vote_ratio * params_.vote_ratio;
+    const size_t overlap = static_cast<size_t>(params_.max_overlap);
+    for (int f = 0; f < frame_u8.rows; ++f) {
+      const uint8_t* q = frame_u8.ptr<uint8_t>(f);
+      nearest.clear();
+      vocabulary_.search(q, params_.search_checks, [&](uint32_t word) {
+        const Posting& p = inverted_[word];
+        for (size_t k = 0; k < p.points.size(); ++k) {
+          const uint32_t d = squaredDistanceU8(q, p.descriptors.data() + k * kDescriptorBytes);
+          const uint32_t slot = p.points[k].slot;
+          const auto it = std::find_if(nearest.begin(), nearest.end(),
+                                       [slot](const auto& n) { return n.first == slot; });
+          if (it == nearest.end()) {
+            nearest.emplace_back(slot, d);
+          } else {
+            it->second = std::min(it->second, d);
+          }
+        }
+        return static_cast<int>(p.points.size());
+      });
+      if (nearest.size() < 2) continue;
+      const size_t m = std::min(overlap, nearest.size() - 1);
+      std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(m),
+                       nearest.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+      const double background = vote_ratio2 * static_cast<double>(nearest[m].second);
+      for (size_t i = 0; i < m; ++i) {
+        const uint32_t slot = nearest[i].first;
+        if (static_cast<double>(nearest[i].second) >= background) continue;
+        if (votes[slot]++ == 0) voted.push_back(slot);
+      }
+    }
+    st.voted_landmarks = static_cast<int>(voted.size());
+    voted.erase(std::remove_if(voted.begin(), voted.end(),
+                               [&](uint32_t s) { return votes[s] < params_.min_votes; }),
+                voted.end());
+    const size_t k = std::min(voted.size(), static_cast<size_t>(params_.max_candidates));
+    std::partial_sort(
+        voted.begin(), voted.begin() + static_cast<std::ptrdiff_t>(k), voted.end(),
+        [&](uint32_t a, uint32_t b) { return votes[a] != votes[b] ? votes[a] > votes[b] : a < b; });
+    slots.assign(voted.begin(), voted.begin() + static_cast<std::ptrdiff_t>(k));
+  }
+  st.candidates = static_cast<int>(slots.size());
+  return verify(frame, frame_u8, slots);
+}
+
+std::vector<Recognition> LandmarkIndex::recognizeExact(const Features& frame) const {
+  if (frame.descriptors.rows == 0 || slot_of_.empty()) return {};
+  std::vector<uint32_t> slots;
+  for (const auto& [id, slot] : slot_of_) slots.push_back(slot);
+  std::sort(slots.begin(), slots.end());
+  return verify(frame, toDescriptorsU8(frame.descriptors), slots);
+}
+
+std::vector<Recognition> LandmarkIndex::verify(const Features& frame, const cv::Mat& frame_u8,
+                                               const std::vector<uint32_t>& slots) const {
+  std::vector<Recognition> out;
+  const double ratio2 = params_.ratio * params_.ratio;
+  const int num_features = frame_u8.rows;
+  struct Best {
     int feature;
-    float dist;
+    uint32_t dist;
   };
-  std::unordered_map<int64_t, std::unordered_map<int, Match>> per_landmark;
-  const float ratio2 = static_cast<float>(params_.ratio * params_.ratio);
-  for (int f = 0; f < indices.rows; ++f) {
-    const int* idx = indices.ptr<int>(f);
-    const float* d = dists.ptr<float>(f);
-    // Walk the neighbours; for each landmark its first hit is the best and
-    // its next hit (or, if none, the farthest neighbour fetched, a lower
-    // bound on it) the second best.
-    std::vector<int64_t> seen;
-    for (int j = 0; j < k; ++j) {
-      if (idx[j] < 0) break;
-      const auto [id, point] = owner_[static_cast<size_t>(idx[j])];
-      if (std::find(seen.begin(), seen.end(), id) != seen.end()) continue;
-      seen.push_back(id);
-      float second = d[k - 1];
-      for (int m = j + 1; m < k; ++m) {
-        if (idx[m] >= 0 && owner_[static_cast<size_t>(idx[m])].first == id) {
-          second = d[m];
-          break;
+  std::vector<Best> best_of_point;
+  for (const uint32_t slot : slots) {
+    const LandmarkModel& lm = entries_[slot].model;
+    const cv::Mat& d = lm.descriptors;
+    const int num_points = d.rows;
+    if (num_points < 2) continue;  // no second neighbour: the ratio test cannot pass
+    best_of_point.assign(static_cast<size_t>(num_points),
+                         {-1, std::numeric_limits<uint32_t>::max()});
+    const uint8_t* points = d.ptr<uint8_t>(0);
+    for (int f = 0; f < num_features; ++f) {
+      const uint8_t* q = frame_u8.ptr<uint8_t>(f);
+      uint32_t d1 = std::numeric_limits<uint32_t>::max(), d2 = d1;
+      int arg = -1;
+      for (int p = 0; p < num_points; ++p) {
+        const uint32_t dist =
+            squaredDistanceU8(q, points + static_cast<size_t>(p) * kDescriptorBytes);
+        if (dist < d1) {
+          d2 = d1;
+          d1 = dist;
+          arg = p;
+        } else if (dist < d2) {
+          d2 = dist;
         }
       }
-      const bool last_is_this = (j == k - 1);
-      if (last_is_this || !(d[j] < ratio2 * second)) continue;
-      auto& matches = per_landmark[id];
-      const auto it = matches.find(point);
-      if (it == matches.end() || d[j] < it->second.dist) matches[point] = {f, d[j]};
+      // Lowe's test on squared distances; each point keeps its closest feature.
+      if (static_cast<double>(d1) < ratio2 * static_cast<double>(d2) &&
+          d1 < best_of_point[static_cast<size_t>(arg)].dist) {
+        best_of_point[static_cast<size_t>(arg)] = {f, d1};
+      }
     }
-  }
-
-  for (auto& [id, matches] : per_landmark) {
-    if (static_cast<int>(matches.size()) < params_.min_matches) continue;
-    const LandmarkModel& lm = landmarks_.at(id);
-    // One landmark point per frame feature: keep the closer one.
-    std::unordered_map<int, std::pair<int, float>> by_feature;
-    for (const auto& [point, m] : matches) {
-      const auto it = by_feature.find(m.feature);
-      if (it == by_feature.end() || m.dist < it->second.second)
-        by_feature[m.feature] = {point, m.dist};
-    }
-    if (static_cast<int>(by_feature.size()) < params_.min_matches) continue;
     std::vector<std::pair<int, int>> pairs;  // (frame feature, point), sorted for determinism
-    for (const auto& [feature, pd] : by_feature) pairs.emplace_back(feature, pd.first);
+    for (int p = 0; p < num_points; ++p) {
+      const Best& b = best_of_point[static_cast<size_t>(p)];
+      if (b.feature >= 0) pairs.emplace_back(b.feature, p);
+    }
+    if (static_cast<int>(pairs.size()) < params_.min_matches) continue;
     std::sort(pairs.begin(), pairs.end());
     Recognition r;
-    r.landmark_id = id;
+    r.landmark_id = lm.id;
     for (const auto& [feature, point] : pairs) {
       r.points_robot.push_back(lm.points_robot[static_cast<size_t>(point)]);
       r.observations.push_back(frame.normalized[static_cast<size_t>(feature)]);
       r.frame_features.push_back(feature);
+      r.landmark_points.push_back(point);
     }
     out.push_back(std::move(r));
   }
@@ -132,6 +334,32 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame) {
                : a.landmark_id < b.landmark_id;
   });
   return out;
+}
+
+size_t LandmarkIndex::memoryBytes() const {
+  size_t bytes = sizeof(*this);
+  bytes += heapBlock(entries_.capacity() * sizeof(Entry));
+  bytes += heapBlock(free_slots_.capacity() * sizeof(uint32_t));
+  for (const Entry& e : entries_) {
+    bytes += heapBlock(e.model.points_robot.capacity() * sizeof(Eigen::Vector3d));
+    bytes += heapBlock(e.words.capacity() * sizeof(uint32_t));
+    if (e.model.descriptors.u) {
+      // cv::Mat: its UMatData block and a 64-byte aligned data block.
+      bytes += heapBlock(sizeof(cv::UMatData));
+      bytes += heapBlock(e.model.descriptors.total() * e.model.descriptors.elemSize() + 64 +
+                         sizeof(void*));
+    }
+  }
+  // Id map: one node per landmark, plus the bucket array.
+  bytes += slot_of_.size() * heapBlock(sizeof(void*) + sizeof(std::pair<const int64_t, uint32_t>));
+  bytes += heapBlock(slot_of_.bucket_count() * sizeof(void*));
+  bytes += heapBlock(inverted_.capacity() * sizeof(Posting));
+  for (const Posting& p : inverted_) {
+    bytes += heapBlock(p.points.capacity() * sizeof(PointRef));
+    bytes += heapBlock(p.descriptors.capacity());
+  }
+  bytes += vocabulary_.memoryBytes();
+  return bytes;
 }
 
 }  // namespace vslam::frontend
