@@ -218,6 +218,8 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
     std::vector<uint16_t> votes(entries_.size(), 0);
     std::vector<uint32_t> voted;
     std::vector<std::pair<uint32_t, uint32_t>> nearest;  // (slot, squared distance)
+    std::vector<int> seen_by(entries_.size(), -1);       // slot -> last feature that found it
+    std::vector<uint32_t> position(entries_.size());     // slot -> its entry in `nearest`
     const double vote_ratio2 = params_.vote_ratio * params_.vote_ratio;
     const size_t overlap = static_cast<size_t>(params_.max_overlap);
     for (int f = 0; f < frame_u8.rows; ++f) {
@@ -228,12 +230,13 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
         for (size_t k = 0; k < p.points.size(); ++k) {
           const uint32_t d = squaredDistanceU8(q, p.descriptors.data() + k * kDescriptorBytes);
           const uint32_t slot = p.points[k].slot;
-          const auto it = std::find_if(nearest.begin(), nearest.end(),
-                                       [slot](const auto& n) { return n.first == slot; });
-          if (it == nearest.end()) {
+          if (seen_by[slot] != f) {  // first point of this landmark for this feature
+            seen_by[slot] = f;
+            position[slot] = static_cast<uint32_t>(nearest.size());
             nearest.emplace_back(slot, d);
           } else {
-            it->second = std::min(it->second, d);
+            auto& n = nearest[position[slot]].second;
+            n = std::min(n, d);
           }
         }
         return static_cast<int>(p.points.size());

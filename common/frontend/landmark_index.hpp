@@ -51,13 +51,13 @@ struct RecognitionParams {
   // overlapping landmarks is not rejected as ambiguous.
   double ratio = 0.8;
   int min_matches = 10;  // fewer matches do not make a measurement (paper: NPoints >= 10)
-  // Landmarks verified per frame, most votes first. Verification costs ~0.2
+  // Landmarks verified per frame, most votes first. Verification costs ~0.15
   // ms per landmark for a 600-feature frame; this bounds it.
   int max_candidates = 48;
-  int min_votes = 3;        // fewer votes: not a candidate
-  int search_checks = 64;   // landmark points compared per frame descriptor
+  int min_votes = 4;        // fewer votes: not a candidate
+  int search_checks = 192;  // landmark points compared per frame descriptor
   double vote_ratio = 0.8;  // ratio test of a vote against the background (see above)
-  int max_overlap = 8;      // landmarks that may hold the same physical point
+  int max_overlap = 16;     // landmarks that may hold the same physical point
   // With at most this many landmarks, or no vocabulary yet, every landmark is
   // verified (exact).
   int exhaustive_max_landmarks = 24;
