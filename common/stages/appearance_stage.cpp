@@ -229,7 +229,9 @@ void AppearanceStage::publishStep(const appearance::StepResult& r, Utime utime, 
   out.step = r.step;
   out.best_state_id = r.best().state_id;
   out.best_belief = r.best().belief;
-  out.step_seconds = seconds;
+  // Wall-clock timing is informational; in lock-step replay it would make
+  // two runs of the same log differ, so it is left 0 there (as health is).
+  out.step_seconds = ctx_->mode == bus::ExecutionMode::kLive ? seconds : 0.0;
   out.num_hypotheses = static_cast<int32_t>(r.hypotheses.size());
   for (const auto& h : r.hypotheses) {
     vslam::appearance_hypothesis_t m;
