@@ -26,8 +26,6 @@ static_assert(static_cast<int>(MeasurementStatus::kRejectedSlope) ==
 static_assert(static_cast<int>(MeasurementStatus::kRejectedInvalid) ==
               visual_measurement_t::STATUS_REJECTED_INVALID);
 
-constexpr Utime kLogPeriod = 5 * kMicrosPerSecond;
-
 Utime periodUs(double rate_hz) { return rate_hz > 0 ? static_cast<Utime>(1e6 / rate_hz) : 0; }
 
 void copyCovariance(const Eigen::Matrix3d& c, double* out) {
@@ -139,18 +137,7 @@ void BackendStage::start(bus::StageContext& ctx) {
 
 template <class... Args>
 void BackendStage::logLimited(LogReason reason, const Args&... args) {
-  const Utime now = ctx_->clock.now();
-  if (last_log_[reason] != 0 && now - last_log_[reason] < kLogPeriod) {
-    ++suppressed_[reason];
-    return;
-  }
-  if (suppressed_[reason] > 0) {
-    log::warn(args..., " (", suppressed_[reason], " more like it not logged)");
-  } else {
-    log::warn(args...);
-  }
-  last_log_[reason] = now;
-  suppressed_[reason] = 0;
+  warnings_.warn(reason, ctx_->clock.now(), args...);
 }
 
 void BackendStage::onOdometry(const vslam::odometry_t& msg) {

@@ -22,6 +22,7 @@
 #include "backend/backend.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
+#include "util/log.hpp"
 
 namespace vslam::stages {
 
@@ -55,7 +56,7 @@ class BackendStage final : public bus::Stage {
   void publishPose(const vslam::odometry_t& msg);
   void publishMap(Utime utime);
   void publishParticles(Utime utime);
-  // At most one log line per reason per kLogPeriod of stage time.
+  // At most one log line per reason per 5 s of stage time.
   enum LogReason { kLogOdometry, kLogMeasurement, kLogLandmark, kLogTiming, kLogKidnap, kNumLog };
   template <class... Args>
   void logLimited(LogReason reason, const Args&... args);
@@ -65,8 +66,7 @@ class BackendStage final : public bus::Stage {
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
   Utime next_map_ = 0, next_particles_ = 0;
-  std::array<Utime, kNumLog> last_log_{};
-  std::array<int64_t, kNumLog> suppressed_{};
+  log::RateLimitedWarnings<kNumLog> warnings_{5 * kMicrosPerSecond};
   // Period figures for health.
   int64_t period_updates_ = 0;
   double period_update_ms_ = 0;

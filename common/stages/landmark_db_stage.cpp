@@ -15,8 +15,6 @@ namespace {
 using landmark_db::ChangeOp;
 using vslam::landmark_update_t;
 
-constexpr Utime kLogPeriod = 5 * kMicrosPerSecond;
-
 Utime periodUs(double seconds) { return std::max<Utime>(1, fromSeconds(seconds)); }
 
 std::string hex(uint64_t v) {
@@ -150,18 +148,7 @@ void LandmarkDbStage::start(bus::StageContext& ctx) {
 
 template <class... Args>
 void LandmarkDbStage::logLimited(LogReason reason, const Args&... args) {
-  const Utime now = ctx_->clock.now();
-  if (last_log_[reason] != 0 && now - last_log_[reason] < kLogPeriod) {
-    ++suppressed_[reason];
-    return;
-  }
-  if (suppressed_[reason] > 0) {
-    log::warn(args..., " (", suppressed_[reason], " more like it not logged)");
-  } else {
-    log::warn(args...);
-  }
-  last_log_[reason] = now;
-  suppressed_[reason] = 0;
+  warnings_.warn(reason, ctx_->clock.now(), args...);
 }
 
 void LandmarkDbStage::fillLandmark(const landmark_db::LandmarkInfo& info,

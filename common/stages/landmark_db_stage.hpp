@@ -30,6 +30,7 @@
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
 #include "landmark_db/landmark_database.hpp"
+#include "util/log.hpp"
 
 namespace vslam::stages {
 
@@ -96,8 +97,7 @@ class LandmarkDbStage final : public bus::Stage {
   Utime next_summary_ = 0, next_flush_ = 0, next_prune_ = 0;
   Utime last_time_ = 0;  // newest robot time seen
   Stats stats_, last_;
-  Utime last_log_[kNumLogReasons] = {};
-  int64_t suppressed_[kNumLogReasons] = {};
+  log::RateLimitedWarnings<kNumLogReasons> warnings_{5 * kMicrosPerSecond};
 };
 
 void registerLandmarkDb(bus::StageRegistry& registry);

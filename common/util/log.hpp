@@ -3,6 +3,9 @@
 // process instance name, so the interleaved output of a process group stays
 // readable. Thread-safe; writes to stderr.
 
+#include <array>
+#include <cstddef>
+#include <cstdint>
 #include <sstream>
 #include <string>
 
@@ -48,5 +51,34 @@ template <class... Args>
 void error(const Args&... args) {
   detail::emit(Level::kError, args...);
 }
+
+// Warnings for a stream of bad input: at most one line per reason per
+// period, the next line counting those it suppressed. Time is the caller's
+// (stage time, so a replay logs the same lines as the live run).
+template <std::size_t NumReasons>
+class RateLimitedWarnings {
+ public:
+  explicit RateLimitedWarnings(int64_t period_us) : period_us_(period_us) {}
+
+  template <class... Args>
+  void warn(std::size_t reason, int64_t now_us, const Args&... args) {
+    if (last_us_[reason] != 0 && now_us - last_us_[reason] < period_us_) {
+      ++suppressed_[reason];
+      return;
+    }
+    if (suppressed_[reason] > 0) {
+      log::warn(args..., " (", suppressed_[reason], " more like it not logged)");
+    } else {
+      log::warn(args...);
+    }
+    last_us_[reason] = now_us;
+    suppressed_[reason] = 0;
+  }
+
+ private:
+  int64_t period_us_;
+  std::array<int64_t, NumReasons> last_us_{};
+  std::array<int64_t, NumReasons> suppressed_{};
+};
 
 }  // namespace vslam::log
