@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "odometry/motion_model.hpp"
+
 namespace vslam::appearance {
 namespace {
 
@@ -18,18 +20,10 @@ struct Trace {
   Eigen::Matrix3d covariance;
 
   void prepend(const Link& link) {
-    const Pose2& a = link.action;
-    const double c = std::cos(a.theta), s = std::sin(a.theta);
-    Eigen::Matrix3d ja;
-    ja << 1, 0, -s * pose.x - c * pose.y,  //
-        0, 1, c * pose.x - s * pose.y,     //
-        0, 0, 1;
-    Eigen::Matrix3d jr;
-    jr << c, -s, 0,  //
-        s, c, 0,     //
-        0, 0, 1;
-    covariance = ja * link.covariance * ja.transpose() + jr * covariance * jr.transpose();
-    pose = a.compose(pose);
+    PoseWithCovariance traced(link.action, link.covariance);
+    traced.apply(pose, covariance);
+    pose = traced.pose();
+    covariance = traced.covariance();
   }
 };
 

@@ -6,7 +6,6 @@
 #include <iomanip>
 #include <limits>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <ostream>
 #include <sstream>
@@ -317,10 +316,7 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
 
 std::vector<fs::path> writeAppearancePlots(const fs::path& dir, const AppearanceReport& r,
                                            cv::Size size) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw DataError(dir.string() + ": cannot create plot directory");
+  ensurePlotDirectory(dir);
   const cv::Scalar kBlack(0, 0, 0), kRed(40, 40, 220), kBlue(200, 90, 20), kGrey(150, 150, 150);
 
   Figure count(size, "Number of path hypotheses (Fig. 8)", "step", "hypotheses");
@@ -371,18 +367,7 @@ std::vector<fs::path> writeAppearancePlots(const fs::path& dir, const Appearance
       {dir / "error_heading.png",
        errorFigure("Heading error of the hypotheses (Fig. 11)", "heading error (deg)",
                    [](const AppearanceHypothesisError& e) { return radToDeg(e.eheading); })}};
-  std::vector<fs::path> written;
-  for (const auto& [path, img] : plots) {
-    bool ok = false;
-    try {
-      ok = cv::imwrite(path.string(), img);
-    } catch (const cv::Exception& e) {
-      throw DataError(path.string() + ": cannot write plot: " + e.what());
-    }
-    if (!ok) throw DataError(path.string() + ": cannot write plot");
-    written.push_back(path);
-  }
-  return written;
+  return writePlotImages(plots);
 }
 
 void printAppearanceUsage(std::ostream& os) {

@@ -300,17 +300,17 @@ cv::Mat plotErrors(const TrajectoryReport& r, cv::Size size) {
   return fig.render();
 }
 
-std::vector<std::filesystem::path> writePlots(const std::filesystem::path& dir,
-                                              const TrajectoryReport& report, cv::Size size) {
+void ensurePlotDirectory(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec || !std::filesystem::is_directory(dir)) {
     throw DataError(dir.string() + ": cannot create plot directory" +
                     (ec ? ": " + ec.message() : std::string()));
   }
-  const std::vector<std::pair<std::filesystem::path, cv::Mat>> plots = {
-      {dir / "trajectory.png", plotTrajectories(report, size)},
-      {dir / "error.png", plotErrors(report, size)}};
+}
+
+std::vector<std::filesystem::path> writePlotImages(
+    const std::vector<std::pair<std::filesystem::path, cv::Mat>>& plots) {
   std::vector<std::filesystem::path> written;
   for (const auto& [path, img] : plots) {
     bool ok = false;
@@ -323,6 +323,13 @@ std::vector<std::filesystem::path> writePlots(const std::filesystem::path& dir,
     written.push_back(path);
   }
   return written;
+}
+
+std::vector<std::filesystem::path> writePlots(const std::filesystem::path& dir,
+                                              const TrajectoryReport& report, cv::Size size) {
+  ensurePlotDirectory(dir);
+  return writePlotImages({{dir / "trajectory.png", plotTrajectories(report, size)},
+                          {dir / "error.png", plotErrors(report, size)}});
 }
 
 }  // namespace vslam::eval

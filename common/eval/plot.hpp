@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "eval/evaluate.hpp"
@@ -53,6 +54,14 @@ cv::Scalar seriesColour(EstimateKind kind, std::size_t index);
 
 cv::Mat plotTrajectories(const TrajectoryReport& report, cv::Size size);
 cv::Mat plotErrors(const TrajectoryReport& report, cv::Size size);
+
+// Creates `dir` if needed; DataError naming it if that fails.
+void ensurePlotDirectory(const std::filesystem::path& dir);
+
+// Writes each image to its path and returns the paths; DataError naming the
+// file if one cannot be written.
+std::vector<std::filesystem::path> writePlotImages(
+    const std::vector<std::pair<std::filesystem::path, cv::Mat>>& plots);
 
 // Writes trajectory.png and error.png into `dir` (created if needed) and
 // returns their paths. Throws DataError if they cannot be written.
