@@ -29,6 +29,8 @@ cv::Mat toDescriptorsU8(const cv::Mat& descriptors) {
 
 namespace {
 
+constexpr uint32_t kFarDistance = std::numeric_limits<uint32_t>::max();
+
 // Size of the glibc malloc chunk holding a request of `bytes` (what
 // mallinfo2() counts): request + 8 rounded up to 16, at least 32.
 size_t heapBlock(size_t bytes) {
@@ -42,12 +44,13 @@ LandmarkIndex::LandmarkIndex(const RecognitionParams& params) : params_(params) 
   if (!(params_.ratio > 0 && params_.ratio <= 1) || params_.min_matches < 3 ||
       params_.max_candidates < 1 || params_.exhaustive_max_landmarks < 0 || params_.min_votes < 1 ||
       params_.search_checks < 1 || !(params_.vote_ratio > 0 && params_.vote_ratio <= 1) ||
-      params_.max_overlap < 1 || params_.vocabulary_min_descriptors < 1 ||
-      params_.vocabulary_max_training < 1 ||
+      params_.max_overlap < 1 || params_.verify_overlap < 1 ||
+      params_.vocabulary_min_descriptors < 1 || params_.vocabulary_max_training < 1 ||
       !(params_.vocabulary_retrain_growth == 0 || params_.vocabulary_retrain_growth > 1)) {
     throw std::invalid_argument(
         "RecognitionParams: ratio in (0, 1], min_matches >= 3, max_candidates >= 1, "
         "min_votes >= 1, search_checks >= 1, vote_ratio in (0, 1], max_overlap >= 1, "
+        "verify_overlap >= 1, "
         "exhaustive_max_landmarks >= 0, vocabulary_min_descriptors >= 1, "
         "vocabulary_max_training >= 1, vocabulary_retrain_growth 0 or > 1");
   }
@@ -207,6 +210,9 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
   const cv::Mat frame_u8 = toDescriptorsU8(frame.descriptors);
 
   std::vector<uint32_t> slots;
+  // Per feature: the verification background seen by the vote search (see
+  // verify()); it also covers landmarks that do not become candidates.
+  std::vector<uint32_t> background(static_cast<size_t>(frame_u8.rows), kFarDistance);
   if (vocabulary_.empty() || size() <= static_cast<size_t>(params_.exhaustive_max_landmarks)) {
     st.exhaustive = true;
     for (const auto& [id, slot] : slot_of_) slots.push_back(slot);
@@ -222,6 +228,7 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
     std::vector<uint32_t> position(entries_.size());     // slot -> its entry in `nearest`
     const double vote_ratio2 = params_.vote_ratio * params_.vote_ratio;
     const size_t overlap = static_cast<size_t>(params_.max_overlap);
+    const size_t verify_overlap = static_cast<size_t>(params_.verify_overlap);
     for (int f = 0; f < frame_u8.rows; ++f) {
       const uint8_t* q = frame_u8.ptr<uint8_t>(f);
       nearest.clear();
@@ -246,11 +253,21 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
       std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(m),
                        nearest.end(),
                        [](const auto& a, const auto& b) { return a.second < b.second; });
-      const double background = vote_ratio2 * static_cast<double>(nearest[m].second);
+      const double vote_background = vote_ratio2 * static_cast<double>(nearest[m].second);
       for (size_t i = 0; i < m; ++i) {
         const uint32_t slot = nearest[i].first;
-        if (static_cast<double>(nearest[i].second) >= background) continue;
+        if (static_cast<double>(nearest[i].second) >= vote_background) continue;
         if (votes[slot]++ == 0) voted.push_back(slot);
+      }
+      if (verify_overlap < nearest.size()) {
+        // The (verify_overlap + 1)-th nearest landmark found: among the m + 1
+        // nearest if it is one of them, else nearest[m] itself.
+        const auto nth = nearest.begin() + static_cast<std::ptrdiff_t>(verify_overlap);
+        if (verify_overlap < m) {
+          std::nth_element(nearest.begin(), nth, nearest.begin() + static_cast<std::ptrdiff_t>(m),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
+        }
+        background[static_cast<size_t>(f)] = nth->second;
       }
     }
     st.voted_landmarks = static_cast<int>(voted.size());
@@ -264,7 +281,7 @@ std::vector<Recognition> LandmarkIndex::recognize(const Features& frame,
     slots.assign(voted.begin(), voted.begin() + static_cast<std::ptrdiff_t>(k));
   }
   st.candidates = static_cast<int>(slots.size());
-  return verify(frame, frame_u8, slots);
+  return verify(frame, frame_u8, slots, std::move(background));
 }
 
 std::vector<Recognition> LandmarkIndex::recognizeExact(const Features& frame) const {
@@ -272,46 +289,79 @@ std::vector<Recognition> LandmarkIndex::recognizeExact(const Features& frame) co
   std::vector<uint32_t> slots;
   for (const auto& [id, slot] : slot_of_) slots.push_back(slot);
   std::sort(slots.begin(), slots.end());
-  return verify(frame, toDescriptorsU8(frame.descriptors), slots);
+  return verify(frame, toDescriptorsU8(frame.descriptors), slots,
+                std::vector<uint32_t>(static_cast<size_t>(frame.descriptors.rows), kFarDistance));
 }
 
 std::vector<Recognition> LandmarkIndex::verify(const Features& frame, const cv::Mat& frame_u8,
-                                               const std::vector<uint32_t>& slots) const {
+                                               const std::vector<uint32_t>& slots,
+                                               std::vector<uint32_t> background) const {
   std::vector<Recognition> out;
   const double ratio2 = params_.ratio * params_.ratio;
-  const int num_features = frame_u8.rows;
+  const size_t num_features = static_cast<size_t>(frame_u8.rows);
+  const size_t num_slots = slots.size();
+  constexpr uint32_t kFar = kFarDistance;
+  // Nearest and second-nearest point of each candidate for each feature
+  // (squared distances; candidate-major).
+  struct Nearest {
+    uint32_t d1 = kFar, d2 = kFar;
+    int point = -1;
+  };
+  std::vector<Nearest> nearest(num_slots * num_features);
+  for (size_t c = 0; c < num_slots; ++c) {
+    const cv::Mat& d = entries_[slots[c]].model.descriptors;
+    const uint8_t* points = d.rows > 0 ? d.ptr<uint8_t>(0) : nullptr;
+    for (size_t f = 0; f < num_features; ++f) {
+      const uint8_t* q = frame_u8.ptr<uint8_t>(static_cast<int>(f));
+      Nearest& n = nearest[c * num_features + f];
+      for (int p = 0; p < d.rows; ++p) {
+        const uint32_t dist =
+            squaredDistanceU8(q, points + static_cast<size_t>(p) * kDescriptorBytes);
+        if (dist < n.d1) {
+          n.d2 = n.d1;
+          n.d1 = dist;
+          n.point = p;
+        } else if (dist < n.d2) {
+          n.d2 = dist;
+        }
+      }
+    }
+  }
+  // Background of each feature: the nearest point of the (verify_overlap +
+  // 1)-th nearest candidate. A feature matches a landmark only if it is
+  // clearly nearer than both the landmark's own second-nearest point and this
+  // background, so up to verify_overlap landmarks holding the same physical
+  // point all keep it, while a chance match (a small landmark's nearest point
+  // that is no nearer than what other landmarks offer) does not. The caller's
+  // background (from a search over more landmarks than the candidates) is
+  // lowered to the candidates' where theirs is nearer.
+  const size_t overlap = static_cast<size_t>(params_.verify_overlap);
+  if (num_slots > overlap) {
+    std::vector<uint32_t> column(num_slots);
+    for (size_t f = 0; f < num_features; ++f) {
+      for (size_t c = 0; c < num_slots; ++c) column[c] = nearest[c * num_features + f].d1;
+      std::nth_element(column.begin(), column.begin() + static_cast<std::ptrdiff_t>(overlap),
+                       column.end());
+      background[f] = std::min(background[f], column[overlap]);
+    }
+  }
   struct Best {
     int feature;
     uint32_t dist;
   };
   std::vector<Best> best_of_point;
-  for (const uint32_t slot : slots) {
-    const LandmarkModel& lm = entries_[slot].model;
-    const cv::Mat& d = lm.descriptors;
-    const int num_points = d.rows;
+  for (size_t c = 0; c < num_slots; ++c) {
+    const LandmarkModel& lm = entries_[slots[c]].model;
+    const int num_points = lm.descriptors.rows;
     if (num_points < 2) continue;  // no second neighbour: the ratio test cannot pass
-    best_of_point.assign(static_cast<size_t>(num_points),
-                         {-1, std::numeric_limits<uint32_t>::max()});
-    const uint8_t* points = d.ptr<uint8_t>(0);
-    for (int f = 0; f < num_features; ++f) {
-      const uint8_t* q = frame_u8.ptr<uint8_t>(f);
-      uint32_t d1 = std::numeric_limits<uint32_t>::max(), d2 = d1;
-      int arg = -1;
-      for (int p = 0; p < num_points; ++p) {
-        const uint32_t dist =
-            squaredDistanceU8(q, points + static_cast<size_t>(p) * kDescriptorBytes);
-        if (dist < d1) {
-          d2 = d1;
-          d1 = dist;
-          arg = p;
-        } else if (dist < d2) {
-          d2 = dist;
-        }
-      }
+    best_of_point.assign(static_cast<size_t>(num_points), {-1, kFar});
+    for (size_t f = 0; f < num_features; ++f) {
+      const Nearest& n = nearest[c * num_features + f];
+      const uint32_t reference = std::min(n.d2, background[f]);
       // Lowe's test on squared distances; each point keeps its closest feature.
-      if (static_cast<double>(d1) < ratio2 * static_cast<double>(d2) &&
-          d1 < best_of_point[static_cast<size_t>(arg)].dist) {
-        best_of_point[static_cast<size_t>(arg)] = {f, d1};
+      if (static_cast<double>(n.d1) < ratio2 * static_cast<double>(reference) &&
+          n.d1 < best_of_point[static_cast<size_t>(n.point)].dist) {
+        best_of_point[static_cast<size_t>(n.point)] = {static_cast<int>(f), n.d1};
       }
     }
     std::vector<std::pair<int, int>> pairs;  // (frame feature, point), sorted for determinism

@@ -15,9 +15,13 @@
 //     while a feature close to nothing in particular gives none. The
 //     landmarks with the most votes (at least `min_votes`, at most
 //     `max_candidates`) go on.
-//  2. Verification: the frame is matched exactly against each candidate on
-//     its own (nearest and second-nearest point of that landmark, Lowe's ratio
-//     test), as if matched against that landmark's image.
+//  2. Verification: the frame is matched exactly against each candidate
+//     (nearest and second-nearest point of that landmark, Lowe's ratio test),
+//     with the second-nearest distance capped by a background: the nearest
+//     point of the (`verify_overlap` + 1)-th nearest candidate. Up to
+//     `verify_overlap` landmarks holding the same physical point all keep its
+//     match; a chance match, a small landmark's nearest point no nearer than
+//     what other landmarks offer, does not.
 // Descriptors are held as uint8 (128 B per point, twice: per landmark for
 // verification and per word for the search); the vocabulary is trained on
 // the landmarks themselves and retrained as they grow, or given.
@@ -46,10 +50,13 @@ struct LandmarkModel {
 };
 
 struct RecognitionParams {
-  // Lowe's ratio test, applied per landmark (as if the frame were matched
-  // against each landmark's image on its own), so a point seen by two
-  // overlapping landmarks is not rejected as ambiguous.
+  // Lowe's ratio test, against the landmark's own second-nearest point and
+  // the background of the other candidates (see verify_overlap).
   double ratio = 0.8;
+  // Landmarks that may hold the same physical point and all keep its match:
+  // the background a match must beat is the nearest point of the
+  // (verify_overlap + 1)-th nearest candidate.
+  int verify_overlap = 3;
   int min_matches = 10;  // fewer matches do not make a measurement (paper: NPoints >= 10)
   // Landmarks verified per frame, most votes first. Verification costs ~0.15
   // ms per landmark for a 600-feature frame; this bounds it.
@@ -147,8 +154,11 @@ class LandmarkIndex {
   void indexWords(uint32_t slot);
   void unindexWords(uint32_t slot);
   void maybeTrain();
+  // `background`: per frame feature, an upper bound of the verification
+  // background already known (max: none).
   std::vector<Recognition> verify(const Features& frame, const cv::Mat& frame_u8,
-                                  const std::vector<uint32_t>& slots) const;
+                                  const std::vector<uint32_t>& slots,
+                                  std::vector<uint32_t> background) const;
 
   RecognitionParams params_;
   std::vector<Entry> entries_;
