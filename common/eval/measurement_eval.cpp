@@ -194,9 +194,11 @@ void writeMeasurementCsv(const std::string& path, const MeasurementReport& r) {
   f.precision(10);
   for (std::size_t i = 0; i < r.samples.size(); ++i) {
     const MeasurementSample& s = r.samples[i];
-    f << s.t << "," << s.camera << "," << s.landmark_id << "," << static_cast<int>(s.verdict) << ","
-      << s.proj_err_rms << "," << s.num_points << "," << s.slope << "," << s.dx << "," << s.dy
-      << "," << s.dtheta;
+    // Time to the microsecond (LCM utime): 10 significant digits would round
+    // epoch seconds to whole seconds.
+    f << fmt("%.6f", s.t) << "," << s.camera << "," << s.landmark_id << ","
+      << static_cast<int>(s.verdict) << "," << s.proj_err_rms << "," << s.num_points << ","
+      << s.slope << "," << s.dx << "," << s.dy << "," << s.dtheta;
     if (const ScoredMeasurement* sc = by_sample[i]) {
       f << "," << sc->true_dx << "," << sc->true_dy << "," << sc->true_dtheta << ","
         << sc->xy_error_m << "," << sc->heading_error_rad << "\n";

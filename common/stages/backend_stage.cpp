@@ -193,6 +193,10 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
       ++period_updates_;
       period_update_ms_ += ms;
       period_max_update_ms_ = std::max(period_max_update_ms_, ms);
+      log::debug("update t ", msg.utime, " ", msg.camera, " landmark ", msg.landmark_id, " ",
+                 backend::toString(r.update.kind), " agreement ", r.update.agreement, " smoothed ",
+                 r.update.smoothed_agreement, " dual ", r.update.num_dual, " outliers ",
+                 r.update.num_outliers, " ess ", r.update.ess);
       if (r.update.kidnap_detected) {
         log::warn("kidnapping detected at measurement ", msg.seq, " of ", msg.camera, " (landmark ",
                   msg.landmark_id, ", agreement ", r.update.agreement,

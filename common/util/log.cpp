@@ -3,6 +3,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <mutex>
 
@@ -10,7 +12,21 @@ namespace vslam::log {
 namespace {
 std::mutex g_mutex;
 std::string g_name = "vslam";
-std::atomic<int> g_min_level{static_cast<int>(Level::kInfo)};
+
+// VSLAM_LOG_LEVEL=debug|info|warn|error sets the start-up level (default
+// info); an unknown value is named on stderr and ignored.
+int initialLevel() {
+  const char* env = std::getenv("VSLAM_LOG_LEVEL");
+  if (env == nullptr || *env == '\0') return static_cast<int>(Level::kInfo);
+  const char* names[] = {"debug", "info", "warn", "error"};
+  for (int i = 0; i < 4; ++i) {
+    if (std::strcmp(env, names[i]) == 0) return i;
+  }
+  std::fprintf(stderr, "VSLAM_LOG_LEVEL=%s: expected debug, info, warn or error; using info\n",
+               env);
+  return static_cast<int>(Level::kInfo);
+}
+std::atomic<int> g_min_level{initialLevel()};
 
 const char* levelTag(Level level) {
   switch (level) {

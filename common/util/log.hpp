@@ -1,7 +1,8 @@
 #pragma once
 // Minimal structured logging: every line carries wall-clock time, level and the
 // process instance name, so the interleaved output of a process group stays
-// readable. Thread-safe; writes to stderr.
+// readable. Thread-safe; writes to stderr. The environment variable
+// VSLAM_LOG_LEVEL (debug, info, warn, error) sets the level at start-up.
 
 #include <array>
 #include <cstddef>
