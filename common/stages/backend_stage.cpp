@@ -4,6 +4,7 @@
 #include <vslam/particle_set_t.hpp>
 #include <vslam/pose_estimate_t.hpp>
 
+#include "landmark_db/landmark_store.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -60,6 +61,11 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   b.measurement_sigma_theta_rad_per_m =
       degToRad(node.getDouble("measurement_sigma_theta_deg_per_m", 0.0, InRange{0, 90.0}));
   b.landmark_min_interval_s = node.getDouble("landmark_min_interval_s", 0.0, InRange{0, 60});
+  if (node.has("map_prior_file") && !node.getString("map_prior_file", true).empty())
+    p.map_prior_file = node.getPath("map_prior_file", true);
+  p.map_prior_sigma_xy_m = node.getDouble("map_prior_sigma_xy_m", 0.05, InRange{1e-4, 10.0});
+  p.map_prior_sigma_theta_rad =
+      degToRad(node.getDouble("map_prior_sigma_theta_deg", 1.0, InRange{1e-3, 90.0}));
   p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
   p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
 
@@ -117,7 +123,48 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
 }
 
 BackendStage::BackendStage(BackendStageParams params)
-    : params_(std::move(params)), backend_(params_.backend) {}
+    : params_(std::move(params)), backend_(params_.backend) {
+  if (!params_.map_prior_file.empty()) loadMapPrior();
+}
+
+void BackendStage::loadMapPrior() {
+  landmark_db::StoreOptions options;
+  options.create_if_missing = false;
+  options.read_only = true;
+  // Throws MapFileError naming the file: a map that cannot be read is a
+  // configuration error, not an empty map.
+  landmark_db::LandmarkStore store(params_.map_prior_file, options);
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  covariance(0, 0) = covariance(1, 1) = params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
+  covariance(2, 2) = params_.map_prior_sigma_theta_rad * params_.map_prior_sigma_theta_rad;
+  std::vector<backend::ParticleFilter::KnownLandmark> known;
+  size_t without_pose = 0;
+  for (const landmark_db::LandmarkInfo& info : store.loadAllInfo()) {
+    // Only poses the back-end estimated are in the map frame; a creation
+    // odometry pose is in its run's odometry frame.
+    if (info.pose_source != landmark_db::PoseSource::kMap) {
+      ++without_pose;
+      continue;
+    }
+    backend::LandmarkEstimate e;
+    e.mean = {info.map_pose.x, info.map_pose.y, info.map_pose.theta};
+    e.covariance = covariance;
+    e.num_observations = std::max(1, info.stats.num_accepted);
+    known.push_back({info.id, e});
+  }
+  backend_.filter().loadMap(known);
+  prior_landmarks_ = known.size();
+  params_.database_id = store.databaseId();
+  if (known.empty()) {
+    log::warn("map prior ", params_.map_prior_file.string(),
+              ": no landmark has a back-end pose; starting with an empty map");
+  } else {
+    log::info(
+        "map prior ", params_.map_prior_file.string(), ": ", known.size(), " landmarks (database ",
+        store.databaseId(), ")",
+        without_pose > 0 ? ", " + std::to_string(without_pose) + " without a pose skipped" : "");
+  }
+}
 
 std::vector<std::string> BackendStage::outputChannels() const {
   return {params_.filtered_channel, params_.pose_channel, params_.map_channel,

@@ -16,6 +16,7 @@
 // once per reason every few seconds; the stage keeps running.
 
 #include <array>
+#include <filesystem>
 #include <vslam/odometry_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
@@ -37,6 +38,14 @@ struct BackendStageParams {
   double map_rate_hz = 1.0;        // MAP messages per second of robot time; 0: none
   double particles_rate_hz = 2.0;  // PARTICLES messages per second of robot time; 0: none
   std::string database_id;         // map_t.database_id ("" until a landmark DB names one)
+  // Localization in a known map: the landmark map file of an earlier run
+  // (vslam-landmark-db's map_file), read once at start-up. Its landmarks
+  // with a back-end pose (pose source "map") start in every particle's map
+  // with this standard deviation; the particles start at the map origin
+  // (the earlier run's start pose). Empty: start with an empty map.
+  std::filesystem::path map_prior_file;
+  double map_prior_sigma_xy_m = 0.05;
+  double map_prior_sigma_theta_rad = 0.0175;
 
   static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
@@ -49,6 +58,8 @@ class BackendStage final : public bus::Stage {
   std::vector<std::string> outputChannels() const override;
 
   const backend::Backend& backend() const { return backend_; }
+  // Landmarks loaded from map_prior_file (0 without one).
+  size_t priorLandmarks() const { return prior_landmarks_; }
 
  private:
   void onOdometry(const vslam::odometry_t& msg);
@@ -61,8 +72,11 @@ class BackendStage final : public bus::Stage {
   template <class... Args>
   void logLimited(LogReason reason, const Args&... args);
 
+  void loadMapPrior();
+
   BackendStageParams params_;
   backend::Backend backend_;
+  size_t prior_landmarks_ = 0;
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
   Utime next_map_ = 0, next_particles_ = 0;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -18,6 +19,7 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
+#include "landmark_db/landmark_store.hpp"
 #include "stages/backend_stage.hpp"
 #include "stages/builtin_stages.hpp"
 #include "support/test_logs.hpp"
@@ -296,6 +298,94 @@ processes:
     ADD_FAILURE() << "a misspelt key was accepted";
   } catch (const config::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("dual_ratio_mix"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
+  // Localization in a known map: an earlier run's map file holds landmarks
+  // with a back-end pose (pose source "map") and one known only by its
+  // creation odometry pose (another frame). The stage starts every particle
+  // with the former, at the configured standard deviation.
+  const fs::path dir = vslam::test::scratchDir("backend_map_prior");
+  const fs::path map = dir / "landmarks.vslam-map";
+  const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {-3.0, 0.25, -2.0}}};
+  {
+    landmark_db::StoreOptions options;
+    options.new_database_id = "lmdb-prior-test";
+    landmark_db::LandmarkStore store(map, options);
+    landmark_db::LandmarkStructure structure;
+    structure.num_points = 1;
+    structure.points = {0.f, 0.f, 2.f};
+    structure.keypoints = {0.f, 0.f};
+    structure.scales = {1.f};
+    structure.orientations = {0.f};
+    structure.descriptors.assign(128, 7);
+    int64_t revision = 0;
+    for (int64_t id = 1; id <= 3; ++id) {
+      landmark_db::LandmarkInfo info;
+      info.id = id;
+      info.camera = "forward";
+      info.proposal_id = id;
+      info.fingerprint = static_cast<uint64_t>(id);
+      info.num_points = 1;
+      info.stats.num_accepted = 5;
+      if (poses.count(id)) {
+        info.pose_source = landmark_db::PoseSource::kMap;
+        info.map_pose = poses.at(id);
+      }
+      store.insert(info, structure, ++revision);
+    }
+  }
+  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
+  const fs::path config = dir / "vslam.yaml";
+  auto write_config = [&](const std::string& prior) {
+    std::ofstream(config) << "robot: " << robot.string() << R"(
+processes:
+  backend:
+    role: backend
+    sigma_translation: 0.03
+    sigma_rotation: 0.03
+    num_particles: 50
+    map_prior_file: )" << prior
+                          << R"(
+    map_prior_sigma_xy_m: 0.1
+    map_prior_sigma_theta_deg: 2.0
+)";
+  };
+  write_config("landmarks.vslam-map");  // relative to the config file
+  auto stack = config::StackConfig::loadFile(config);
+  stages::BackendStage stage(
+      stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+  EXPECT_EQ(stage.priorLandmarks(), 2u);
+  const backend::ParticleFilter& filter = stage.backend().filter();
+  EXPECT_EQ(filter.numLandmarks(), 2u);
+  EXPECT_EQ(filter.slotOf(3), -1);  // no map pose: not in the prior
+  for (const auto& [id, pose] : poses) {
+    const int64_t slot = filter.slotOf(id);
+    ASSERT_GE(slot, 0) << id;
+    for (const backend::Particle& p : filter.particles()) {
+      const backend::LandmarkEstimate* e = p.map.find(static_cast<uint32_t>(slot));
+      ASSERT_NE(e, nullptr);
+      EXPECT_DOUBLE_EQ(e->mean.x(), pose.x);
+      EXPECT_DOUBLE_EQ(e->mean.y(), pose.y);
+      EXPECT_DOUBLE_EQ(e->mean.z(), pose.theta);
+      EXPECT_NEAR(e->covariance(0, 0), 0.01, 1e-12);
+      EXPECT_NEAR(e->covariance(2, 2), std::pow(2.0 * M_PI / 180.0, 2), 1e-12);
+      EXPECT_EQ(e->num_observations, 5);
+    }
+  }
+
+  // A file that is not a landmark map is a configuration error naming it.
+  { std::ofstream(dir / "not-a-map") << "hello"; }
+  write_config("not-a-map");
+  stack = config::StackConfig::loadFile(config);
+  try {
+    stages::BackendStage bad(
+        stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+    ADD_FAILURE() << "a file that is not a map was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("not-a-map"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
 }
