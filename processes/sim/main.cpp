@@ -6,9 +6,11 @@
 #include <chrono>
 #include <cstdlib>
 #include <iostream>
+#include <sstream>
 #include <thread>
 #include <vslam/health_t.hpp>
 
+#include "bus/health_barrier.hpp"
 #include "bus/process_main.hpp"
 #include "config/stack_config.hpp"
 #include "sim/simulator.hpp"
@@ -36,7 +38,11 @@ void usage() {
          "  --config FILE         stack configuration: robot cameras and channels (default "
          "$VSLAM_CONFIG, else config/vslam.yaml)\n"
          "  --instance NAME       block under processes: (default sim)\n"
-         "  --lcm-url URL         live: LCM provider\n";
+         "  --lcm-url URL         live: LCM provider\n"
+         "  --wait-for A,B,...    live: publish nothing until these process instances have\n"
+         "                        published health (they are subscribed), e.g. when started\n"
+         "                        together with them by scripts/launch\n"
+         "  --wait-timeout S      live: give up waiting after S seconds (default 60; exit 1)\n";
 }
 
 // Publishes on the bus, sleeping so that sim time runs at `speed` x real time.
@@ -76,7 +82,8 @@ int main(int argc, char** argv) {
   log::setProcessName("sim");
   tuneAllocatorForSteadyState();
   std::string scenario_arg, out, config_file, instance = "sim", lcm_url;
-  double speed = 0, duration = 0, start_time = -1;
+  double speed = 0, duration = 0, start_time = -1, wait_timeout = 60;
+  std::vector<std::string> wait_for;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -114,6 +121,13 @@ int main(int argc, char** argv) {
       instance = next();
     } else if (a == "--lcm-url") {
       lcm_url = next();
+    } else if (a == "--wait-for") {
+      std::stringstream list(next());
+      for (std::string name; std::getline(list, name, ',');) {
+        if (!name.empty()) wait_for.push_back(name);
+      }
+    } else if (a == "--wait-timeout") {
+      wait_timeout = number(next());
     } else {
       std::cerr << "vslam-sim: unknown argument '" << a << "' (see --help)\n";
       return bus::kExitUsage;
@@ -124,7 +138,10 @@ int main(int argc, char** argv) {
     config_file = env && *env ? env : "config/vslam.yaml";
   }
 
+  installStopSignalHandlers();
   std::unique_ptr<sim::Simulator> simulator;
+  std::unique_ptr<lcm::LCM> live_lcm;
+  std::string live_url;
   std::unique_ptr<config::StackConfig> stack_holder;
   sim::Scenario scenario;
   try {
@@ -153,6 +170,29 @@ int main(int argc, char** argv) {
     }
     scenario = sim::Scenario::loadByName(scenario_arg, stack_holder->root.baseDir() / "scenarios");
     if (duration > 0) scenario.duration_s = duration;
+    if (out.empty()) {
+      const std::string url = config::resolveLcmUrl(lcm_url, stack_holder->lcm_url);
+      live_lcm = std::make_unique<lcm::LCM>(url);
+      if (!live_lcm->good()) {
+        log::error("cannot open LCM at '", url, "'");
+        return bus::kExitFailure;
+      }
+      live_url = url;
+    }
+    if (live_lcm && !wait_for.empty()) {
+      bus::HealthBarrier barrier(*live_lcm, stack_holder->robot.channels.health, wait_for);
+      log::info("waiting up to ", wait_timeout, " s for health from ", wait_for.size(),
+                " process instances on ", stack_holder->robot.channels.health);
+      if (!barrier.wait(wait_timeout, stopRequested)) {
+        if (stopRequested()) return bus::kExitOk;
+        std::string missing;
+        for (const auto& name : barrier.pending()) missing += (missing.empty() ? "" : ", ") + name;
+        log::error("no health from ", missing, " within ", wait_timeout,
+                   " s (--wait-for): are they running on this bus?");
+        return bus::kExitFailure;
+      }
+    }
+    // Live, the first message is stamped now: after the wait, not before it.
     const Utime start = start_time >= 0 ? fromSeconds(start_time)
                         : out.empty()   ? wallUtime()
                                         : kDefaultLogStart;
@@ -169,7 +209,6 @@ int main(int argc, char** argv) {
   log::info("scenario ", scenario.name, " (", scenario.file.string(), "), world ",
             scenario.world_file.string(), ", ", stack.robot.cameras.size(), " cameras");
 
-  installStopSignalHandlers();
   const Utime wall_start = monotonicUtime();
   try {
     if (!out.empty()) {
@@ -183,13 +222,8 @@ int main(int argc, char** argv) {
         }
       }
     } else {
-      const std::string url = config::resolveLcmUrl(lcm_url, stack.lcm_url);
-      lcm::LCM lcm(url);
-      if (!lcm.good()) {
-        log::error("cannot open LCM at '", url, "'");
-        return bus::kExitFailure;
-      }
-      log::info("publishing live on ", url, " at ", speed, "x real time");
+      lcm::LCM& lcm = *live_lcm;
+      log::info("publishing live on ", live_url, " at ", speed, "x real time");
       LiveSink sink(lcm, speed);
       Utime next_health = monotonicUtime() + kMicrosPerSecond;
       int64_t frames_at_health = 0;

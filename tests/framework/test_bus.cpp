@@ -9,6 +9,7 @@
 #include <vslam/odometry_t.hpp>
 
 #include "bus/bus.hpp"
+#include "bus/health_barrier.hpp"
 #include "bus/latest_worker.hpp"
 #include "bus/runner.hpp"
 
@@ -187,4 +188,40 @@ TEST(StageRunner, PublishesHealthPerStageOnSchedule) {
   pump(lcm);
   EXPECT_TRUE(raw->stopped_);
   EXPECT_EQ(health.size(), 3u);  // a last health on stop
+}
+
+namespace {
+
+void publishHealth(lcm::LCM& lcm, const std::string& instance) {
+  vslam::health_t h{};
+  h.process = "vslam-test";
+  h.instance = instance;
+  lcm.publish("HEALTH", &h);
+}
+
+}  // namespace
+
+TEST(HealthBarrier, OpensWhenEveryInstanceHasPublishedHealth) {
+  lcm::LCM lcm("memq://");
+  HealthBarrier barrier(lcm, "HEALTH", {"backend", "frontend_forward"});
+  publishHealth(lcm, "backend");
+  publishHealth(lcm, "appearance");  // not waited for: changes nothing
+  const uint8_t garbage[3] = {1, 2, 3};
+  lcm.publish("HEALTH", garbage, sizeof(garbage));
+  EXPECT_FALSE(barrier.wait(0.2, [] { return false; }));
+  EXPECT_EQ(barrier.pending(), std::set<std::string>{"frontend_forward"});
+  EXPECT_EQ(barrier.malformed(), 1);
+
+  publishHealth(lcm, "frontend_forward");
+  EXPECT_TRUE(barrier.wait(5.0, [] { return false; }));
+  EXPECT_TRUE(barrier.pending().empty());
+}
+
+TEST(HealthBarrier, AStopRequestEndsTheWaitAtOnce) {
+  lcm::LCM lcm("memq://");
+  HealthBarrier barrier(lcm, "HEALTH", {"backend"});
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_FALSE(barrier.wait(30.0, [] { return true; }));
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  EXPECT_EQ(barrier.pending().size(), 1u);
 }

@@ -1,0 +1,27 @@
+#include "bus/health_barrier.hpp"
+
+#include <vslam/health_t.hpp>
+
+namespace vslam::bus {
+
+HealthBarrier::HealthBarrier(lcm::LCM& lcm, const std::string& health_channel,
+                             const std::vector<std::string>& instances)
+    : lcm_(lcm), pending_(instances.begin(), instances.end()) {
+  subscription_ = lcm_.subscribe(health_channel, &HealthBarrier::onMessage, this);
+}
+
+HealthBarrier::~HealthBarrier() {
+  if (subscription_) lcm_.unsubscribe(subscription_);
+}
+
+void HealthBarrier::onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  vslam::health_t health;
+  const int size = static_cast<int>(rbuf->data_size);
+  if (health.decode(rbuf->data, 0, size) != size) {
+    ++malformed_;
+    return;
+  }
+  pending_.erase(health.instance);
+}
+
+}  // namespace vslam::bus
