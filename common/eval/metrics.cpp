@@ -73,10 +73,16 @@ AteResult computeAte(const Trajectory& ref, const Trajectory& est, double offset
                                                          ref.poses[r.matches.front().ref])
                                            : alignPositions(est_p, ref_p, mode);
   r.errors.reserve(r.matches.size());
+  r.heading_errors.reserve(r.matches.size());
+  const Eigen::Quaterniond align_q(r.alignment.R);
   for (std::size_t i = 0; i < est_p.size(); ++i) {
     r.errors.push_back((r.alignment.apply(est_p[i]) - ref_p[i]).norm());
+    const double d = headingOf(align_q * est.poses[r.matches[i].est].orientation) -
+                     headingOf(ref.poses[r.matches[i].ref].orientation);
+    r.heading_errors.push_back(std::abs(std::remainder(d, 2.0 * M_PI)));
   }
   r.stats = computeStats(r.errors);
+  r.heading = computeStats(r.heading_errors);
   return r;
 }
 

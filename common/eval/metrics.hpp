@@ -25,12 +25,16 @@ ErrorStats computeStats(const std::vector<double>& values);
 
 // Absolute trajectory error: associate (associate.py semantics), align the
 // associated estimate positions to the reference ones (alignPositions), and
-// take the Euclidean distance of each pair.
+// take the Euclidean distance of each pair. The heading error of a pair is
+// |heading(aligned estimate) - heading(reference)| on the shortest arc
+// (headingOf; the alignment's rotation applied to the estimate first).
 struct AteResult {
   std::vector<Match> matches;  // ref/est indices, sorted by reference time
   Similarity alignment;        // estimate frame -> reference frame
   std::vector<double> errors;  // metres, one per match
   ErrorStats stats;
+  std::vector<double> heading_errors;  // radians in [0, pi], one per match
+  ErrorStats heading;
 };
 // Throws DataError if no pair is associated or there are too few for `mode`.
 AteResult computeAte(const Trajectory& ref, const Trajectory& est, double offset, double max_diff,

@@ -166,6 +166,11 @@ void printTable(std::ostream& os, const TrajectoryReport& r) {
     rows.push_back({std::string("ATE ") + name + " [m]",
                     [field = field](const auto& e) { return fixed(e.ate.stats.*field, 6); }});
   }
+  for (const auto& [name, field] : stat_fields) {
+    rows.push_back({std::string("ATE heading ") + name + " [deg]", [field = field](const auto& e) {
+                      return fixed(e.ate.heading.*field * kRadToDeg, 4);
+                    }});
+  }
   rows.push_back({"RPE pairs", [](const auto& e) { return std::to_string(e.rpe.trans.count); }});
   for (const auto& [name, field] : stat_fields) {
     rows.push_back({std::string("RPE trans ") + name + " [m]",
@@ -244,6 +249,7 @@ std::string toJson(const TrajectoryReport& r) {
     j.beginObject("ate");
     j.integer("pairs", static_cast<long long>(e.ate.stats.count));
     statsJson(j, "translation_m", e.ate.stats, 1.0);
+    statsJson(j, "heading_deg", e.ate.heading, kRadToDeg);
     j.endObject();
     j.beginObject("rpe");
     j.integer("pairs", static_cast<long long>(e.rpe.trans.count));

@@ -262,6 +262,34 @@ TEST(EvalAte, KnownOffsetsGiveHandComputedStatistics) {
   EXPECT_NEAR(e.ate.stats.max, 0.4, kTol);
 }
 
+TEST(EvalAte, HeadingErrorIsTheShortestArcAfterAlignment) {
+  // Headings off by +5, -10, +15, -20 degrees (repeating) at the right
+  // positions: |errors| 5, 10, 15, 20 -> mean 12.5, max 20; the positions are
+  // exact, so no alignment changes them.
+  const Trajectory ref = square();
+  Trajectory est = ref;
+  const double offsets_deg[4] = {5, -10, 15, -20};
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    est.poses[i].orientation =
+        Eigen::Quaterniond(rotZ(offsets_deg[i % 4] * M_PI / 180)) * est.poses[i].orientation;
+  }
+  const auto e = evaluate(ref, est, AlignMode::kNone);
+  EXPECT_LT(e.ate.stats.max, 1e-12);
+  EXPECT_NEAR(e.ate.heading.mean * 180 / M_PI, 12.5, 1e-9);
+  EXPECT_NEAR(e.ate.heading.max * 180 / M_PI, 20.0, 1e-9);
+  EXPECT_NEAR(e.ate.heading.min * 180 / M_PI, 5.0, 1e-9);
+  // Across +-180 degrees: 179 against -179 is 2 degrees, not 358.
+  Trajectory r1, e1;
+  r1.poses = {planarPose(0, 0, 0, 0, M_PI * 179 / 180)};
+  e1.poses = {planarPose(0, 0, 0, 0, -M_PI * 179 / 180)};
+  EXPECT_NEAR(evaluate(r1, e1, AlignMode::kNone).ate.heading.max * 180 / M_PI, 2.0, 1e-9);
+  // The alignment's rotation applies to the headings too: a rigidly rotated
+  // copy has no heading error once aligned.
+  const Trajectory moved = transformed(ref, rotZ(0.7), {1.0, 2.0, 0.0});
+  EXPECT_LT(evaluate(ref, moved, AlignMode::kSE2).ate.heading.max, 1e-9);
+  EXPECT_NEAR(evaluate(ref, moved, AlignMode::kNone).ate.heading.max, 0.7, 1e-9);
+}
+
 TEST(EvalAte, AssociationLimitsThePairs) {
   const Trajectory ref = square();
   Trajectory est = ref;
