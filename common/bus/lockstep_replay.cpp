@@ -2,6 +2,8 @@
 
 #include <cstdio>
 #include <cstring>
+#include <deque>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -9,6 +11,12 @@
 
 namespace vslam::bus {
 namespace {
+
+struct OwnedEvent {
+  int64_t timestamp = 0;
+  std::string channel;
+  std::vector<uint8_t> data;
+};
 
 // Position of the next LCM event sync word (0xEDA1DA01, big-endian) at or
 // after `from`, or -1.
@@ -104,48 +112,86 @@ ReplayStats LockstepReplay::run() {
   FILE* file = in.getFilePtr();
   long end_of_last_event = std::ftell(file);
   int64_t last_eventnum = -1;
+  auto is_input = [&](const std::string& channel) {
+    return !stage_outputs.count(channel) && std::regex_match(channel, input_filter);
+  };
+  // The next event of the log, copied (LCM's reader reuses its buffer), or
+  // nothing at the end. Skips damaged bytes to the next event.
+  auto read_event = [&]() -> std::optional<OwnedEvent> {
+    for (;;) {
+      const lcm::LogEvent* ev = in.readNextEvent();
+      if (!ev) {
+        // LCM's reader stops at a damaged event header; skip to the next sync
+        // word and go on, so one bad event does not lose the rest of the log.
+        const long resume = findNextSyncWord(file, end_of_last_event + 1);
+        if (resume < 0) return std::nullopt;
+        log::warn("input log ", options_.input.string(), ": damaged data at bytes ",
+                  end_of_last_event, "..", resume, "; skipped to the next event");
+        stats_.bytes_skipped += resume - end_of_last_event;
+        std::fseek(file, resume, SEEK_SET);
+        end_of_last_event = resume;
+        continue;
+      }
+      end_of_last_event = std::ftell(file);
+      ++stats_.events_read;
+      // lcm-logger numbers events consecutively: a gap is events lost to damage.
+      if (stats_.events_read > 1 && ev->eventnum > last_eventnum + 1) {
+        const int64_t gap = ev->eventnum - last_eventnum - 1;
+        stats_.events_missing += gap;
+        log::warn("input log ", options_.input.string(), ": ", gap,
+                  " event(s) missing before event ", ev->eventnum, "; continuing");
+      }
+      last_eventnum = ev->eventnum;
+      const auto* bytes = static_cast<const uint8_t*>(ev->data);
+      return OwnedEvent{ev->timestamp, ev->channel,
+                        std::vector<uint8_t>(bytes, bytes + ev->datalen)};
+    }
+  };
+  // Events read but not yet delivered: each input among them has been offered
+  // to the stages to prefetch (Stage::prefetch) once they were started.
+  std::deque<OwnedEvent> ahead;
+  bool at_end = false;
+  auto fill_ahead = [&] {
+    while (!at_end && ahead.size() < options_.prefetch_events + 1) {
+      std::optional<OwnedEvent> ev = read_event();
+      if (!ev) {
+        at_end = true;
+        break;
+      }
+      if (started && is_input(ev->channel)) {
+        runner_->prefetch(ev->channel, ev->data.data(), ev->data.size());
+      }
+      ahead.push_back(std::move(*ev));
+    }
+  };
   for (;;) {
-    const lcm::LogEvent* ev = in.readNextEvent();
-    if (!ev) {
-      // LCM's reader stops at a damaged event header; skip to the next sync
-      // word and go on, so one bad event does not lose the rest of the log.
-      const long resume = findNextSyncWord(file, end_of_last_event + 1);
-      if (resume < 0) break;
-      log::warn("input log ", options_.input.string(), ": damaged data at bytes ",
-                end_of_last_event, "..", resume, "; skipped to the next event");
-      stats_.bytes_skipped += resume - end_of_last_event;
-      std::fseek(file, resume, SEEK_SET);
-      end_of_last_event = resume;
-      continue;
+    if (ahead.empty()) {
+      if (at_end) break;
+      std::optional<OwnedEvent> first = read_event();
+      if (!first) break;
+      ahead.push_back(std::move(*first));
     }
-    end_of_last_event = std::ftell(file);
-    ++stats_.events_read;
-    // lcm-logger numbers events consecutively: a gap is events lost to damage.
-    if (stats_.events_read > 1 && ev->eventnum > last_eventnum + 1) {
-      const int64_t gap = ev->eventnum - last_eventnum - 1;
-      stats_.events_missing += gap;
-      log::warn("input log ", options_.input.string(), ": ", gap, " event(s) missing before event ",
-                ev->eventnum, "; continuing");
-    }
-    last_eventnum = ev->eventnum;
+    OwnedEvent ev = std::move(ahead.front());
+    ahead.pop_front();
     if (!started) {
-      first_ts = ev->timestamp;
-      clock_.set(ev->timestamp);
+      first_ts = ev.timestamp;
+      clock_.set(ev.timestamp);
       runner_->startAll();
       dispatchUntilQuiet();
       started = true;
     }
+    fill_ahead();
     // Log time never runs backwards for the stages, even if the log's does.
-    if (ev->timestamp > clock_.now()) clock_.set(ev->timestamp);
-    last_ts = std::max(last_ts, ev->timestamp);
+    if (ev.timestamp > clock_.now()) clock_.set(ev.timestamp);
+    last_ts = std::max(last_ts, ev.timestamp);
     runner_->tick(clock_.now());
     dispatchUntilQuiet();
-    if (stage_outputs.count(ev->channel) || !std::regex_match(ev->channel, input_filter)) {
+    if (!is_input(ev.channel)) {
       ++stats_.events_dropped;
       continue;
     }
     next_is_input_ = true;
-    lcm_->publish(ev->channel, ev->data, static_cast<unsigned int>(ev->datalen));
+    lcm_->publish(ev.channel, ev.data.data(), static_cast<unsigned int>(ev.data.size()));
     ++stats_.events_fed;
     dispatchUntilQuiet();
   }

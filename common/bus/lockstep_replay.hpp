@@ -9,6 +9,7 @@
 // Stage time comes from the log (each event's timestamp). Health messages
 // carry wall-clock timing and are left out of the output unless asked for.
 
+#include <cstddef>
 #include <filesystem>
 #include <memory>
 #include <regex>
@@ -27,6 +28,9 @@ struct ReplayOptions {
   bool keep_health = false;           // also record the stages' health messages
   bool keep_inputs = true;            // record the input events fed to the stages
   std::string input_channels = ".*";  // regex: only feed matching input channels
+  // Input events offered to the stages ahead of delivery (Stage::prefetch),
+  // so that pure per-message work (SIFT) overlaps with the events before it.
+  std::size_t prefetch_events = 48;
 };
 
 struct ReplayStats {

@@ -69,6 +69,11 @@ void StageRunner::tick(Utime now) {
   }
 }
 
+void StageRunner::prefetch(const std::string& channel, const void* data, size_t size) {
+  if (!started_ || stopped_) return;
+  for (auto& e : entries_) e->stage->prefetch(channel, data, size);
+}
+
 void StageRunner::drainAll() {
   for (auto& e : entries_) e->stage->drain();
 }

@@ -30,6 +30,8 @@ class StageRunner {
   // Timers and health due at `now`.
   void tick(Utime now);
   void drainAll();
+  // Lock-step replay: offers every started stage an input message ahead of its delivery.
+  void prefetch(const std::string& channel, const void* data, size_t size);
   // Stops stages in reverse order (flushing their state) and publishes a last health.
   void stopAll();
   // Live loop: handle messages until stopRequested(); returns the exit code.

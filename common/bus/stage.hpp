@@ -58,6 +58,15 @@ class Stage {
   // Returns once all work handed to background workers is done (lock-step
   // barrier; a no-op for stages that work inline).
   virtual void drain() {}
+  // Lock-step replay only: an input message on `channel` that will be
+  // delivered a few events from now. A stage may start work on it that
+  // depends on nothing but the message (feature extraction), to run on
+  // another core while the events before it are handled; delivering the
+  // message later must then give exactly what it would have without the
+  // prefetch. Default: nothing.
+  virtual void prefetch(const std::string& channel, const void* data, size_t size) {
+    (void)channel, (void)data, (void)size;
+  }
   // Fills the stage-specific part of the health message (period statistics).
   virtual void collectHealth(HealthReport& report) { (void)report; }
   // Flushes state (files, databases) and joins workers. Called once.

@@ -86,7 +86,8 @@ FrontendStage::FrontendStage(FrontendParams params)
       extractor_(params_.camera, params_.sift),
       creator_(params_.camera, params_.creation),
       measurement_camera_(frontend::MeasurementCamera::fromConfig(params_.camera)),
-      index_(params_.recognition) {}
+      index_(params_.recognition),
+      prefetch_extractor_(params_.camera, params_.sift) {}
 
 FrontendStage::~FrontendStage() { stop(); }
 
@@ -117,6 +118,8 @@ void FrontendStage::drain() {
 
 void FrontendStage::stop() {
   if (worker_) worker_->stop();
+  prefetch_worker_.stop();
+  prefetched_.clear();
 }
 
 void FrontendStage::onOdometry(const vslam::odometry_t& m) {
@@ -310,15 +313,14 @@ void FrontendStage::resendPending() {
   }
 }
 
-bool FrontendStage::toGray(const vslam::image_t& msg, cv::Mat* gray) {
-  const std::string& channel = params_.camera.image_channel;
+// The image as 8-bit gray, or why it cannot be one. Pure: prefetch() runs it
+// on another thread.
+std::optional<std::string> FrontendStage::decodeGray(const vslam::image_t& msg,
+                                                     cv::Mat* gray) const {
   if (msg.width != params_.camera.width || msg.height != params_.camera.height) {
-    ctx_->bus.reportMalformed(channel, "image " + std::to_string(msg.width) + "x" +
-                                           std::to_string(msg.height) + ", but camera '" +
-                                           params_.camera.name + "' is calibrated for " +
-                                           std::to_string(params_.camera.width) + "x" +
-                                           std::to_string(params_.camera.height));
-    return false;
+    return "image " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
+           ", but camera '" + params_.camera.name + "' is calibrated for " +
+           std::to_string(params_.camera.width) + "x" + std::to_string(params_.camera.height);
   }
   const size_t rows = static_cast<size_t>(msg.height);
   switch (msg.encoding) {
@@ -327,8 +329,7 @@ bool FrontendStage::toGray(const vslam::image_t& msg, cv::Mat* gray) {
       const int channels = msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3;
       if (msg.row_stride < msg.width * channels ||
           msg.data.size() < rows * static_cast<size_t>(msg.row_stride)) {
-        ctx_->bus.reportMalformed(channel, "image data shorter than height x row_stride");
-        return false;
+        return std::string("image data shorter than height x row_stride");
       }
       const cv::Mat view(msg.height, msg.width, channels == 1 ? CV_8UC1 : CV_8UC3,
                          const_cast<uint8_t*>(msg.data.data()),
@@ -338,29 +339,71 @@ bool FrontendStage::toGray(const vslam::image_t& msg, cv::Mat* gray) {
       } else {
         cv::cvtColor(view, *gray, cv::COLOR_BGR2GRAY);
       }
-      return true;
+      return std::nullopt;
     }
     case vslam::image_t::ENCODING_JPEG:
       *gray = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
       if (gray->empty() || gray->cols != msg.width || gray->rows != msg.height) {
-        ctx_->bus.reportMalformed(channel, "JPEG does not decode to the announced size");
-        return false;
+        return std::string("JPEG does not decode to the announced size");
       }
-      return true;
+      return std::nullopt;
     default:
-      ctx_->bus.reportMalformed(channel, "unknown encoding " + std::to_string(msg.encoding));
-      return false;
+      return "unknown encoding " + std::to_string(msg.encoding);
   }
 }
 
+void FrontendStage::prefetch(const std::string& channel, const void* data, size_t size) {
+  // Frames of this camera a few events ahead, extracted in order on one
+  // thread (one extractor, reused buffers). Features do not depend on the
+  // thread that extracts them, so the replay's output does not either.
+  // (The replay's look-ahead bounds how many are queued.)
+  if (channel != params_.camera.image_channel) return;
+  auto msg = std::make_shared<vslam::image_t>();
+  if (msg->decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
+  const std::pair<Utime, int64_t> frame{msg->utime, msg->seq};
+  prefetched_.emplace_back(frame, prefetch_worker_.submit([this, msg] {
+    PrefetchedFeatures out;
+    if (decodeGray(*msg, &prefetch_gray_)) return out;  // process() reports it
+    const Utime t0 = monotonicUtime();
+    prefetch_extractor_.extract(prefetch_gray_, &out.features);
+    out.sift_ms = msSince(t0);
+    out.ok = true;
+    return out;
+  }));
+}
+
 void FrontendStage::process(vslam::image_t& msg) {
-  if (!toGray(msg, &gray_)) return;
+  // Features prefetched for this very frame, if any; prefetches of earlier
+  // frames (ones that never came) are discarded.
+  std::optional<PrefetchedFeatures> prefetched;
+  const std::pair<Utime, int64_t> frame{msg.utime, msg.seq};
+  while (!prefetched_.empty() && prefetched_.front().first <= frame) {
+    if (prefetched_.front().first == frame)
+      prefetched = prefetched_.front().second.get();
+    else
+      prefetched_.front().second.wait();
+    prefetched_.pop_front();
+  }
+  const bool have_features = prefetched && prefetched->ok;
+  if (!have_features) {
+    if (const auto error = decodeGray(msg, &gray_)) {
+      ctx_->bus.reportMalformed(params_.camera.image_channel, *error);
+      return;
+    }
+  }
   if (params_.use_landmark_db) resendPending();
   View view;
   view.utime = msg.utime;
-  Utime t0 = monotonicUtime();
-  extractor_.extract(gray_, &view.features);
-  const double sift_ms = msSince(t0);
+  double sift_ms = 0;
+  if (have_features) {
+    view.features = std::move(prefetched->features);
+    sift_ms = prefetched->sift_ms;
+  } else {
+    const Utime t0 = monotonicUtime();
+    extractor_.extract(gray_, &view.features);
+    sift_ms = msSince(t0);
+  }
+  Utime t0 = 0;
 
   t0 = monotonicUtime();
   std::vector<frontend::Recognition> recognized;
@@ -418,6 +461,7 @@ void FrontendStage::process(vslam::image_t& msg) {
   stats_.measurements += measured;
   stats_.measurement_failures += failures;
   stats_.no_odometry += have_pose ? 0 : 1;
+  stats_.prefetched += have_features ? 1 : 0;
   stats_.sift_ms += sift_ms;
   stats_.recognition_ms += recognition_ms;
   stats_.measurement_ms += measurement_ms;
@@ -573,6 +617,7 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
     report.add("replica_removed", static_cast<double>(stats_.replica_removed), "count");
   }
   report.add("frames_dropped", static_cast<double>(worker_ ? worker_->dropped() : 0), "count");
+  report.add("frames_prefetched", static_cast<double>(stats_.prefetched), "count");
   if (d.no_odometry > 0) report.warn("frames without odometry: no landmarks can be created");
 }
 

@@ -27,9 +27,11 @@
 //    index, so every camera still recognizes every landmark (nothing persists).
 
 #include <deque>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <vslam/image_t.hpp>
 #include <vslam/landmark_summary_t.hpp>
@@ -37,6 +39,7 @@
 #include <vslam/odometry_t.hpp>
 
 #include "bus/latest_worker.hpp"
+#include "bus/serial_worker.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
 #include "frontend/landmark_creation.hpp"
@@ -74,6 +77,7 @@ class FrontendStage final : public bus::Stage {
   void drain() override;
   void stop() override;
   void collectHealth(bus::HealthReport& report) override;
+  void prefetch(const std::string& channel, const void* data, size_t size) override;
   std::vector<std::string> outputChannels() const override {
     if (!params_.use_landmark_db) return {params_.measurement_channel, params_.proposal_channel};
     return {params_.measurement_channel, params_.proposal_channel, params_.request_channel};
@@ -91,6 +95,7 @@ class FrontendStage final : public bus::Stage {
     double sift_ms = 0, recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
     int64_t acknowledged = 0, rejected = 0, resent = 0, sync_requests = 0, replica_added = 0,
             replica_removed = 0;
+    int64_t prefetched = 0;  // frames whose features prefetch() extracted (replay)
   };
 
   void onImage(const vslam::image_t& msg);
@@ -104,7 +109,7 @@ class FrontendStage final : public bus::Stage {
   void addToReplica(const vslam::landmark_t& l, const std::string& channel);  // index_mutex_ held
   void resendPending();
   void process(vslam::image_t& msg);
-  bool toGray(const vslam::image_t& msg, cv::Mat* gray);
+  std::optional<std::string> decodeGray(const vslam::image_t& msg, cv::Mat* gray) const;
   bool odometryAt(Utime t, Pose2* pose);
   void considerCreation(View view, bool place_covered);
   vslam::landmark_update_t makeProposal(const View& view1, const frontend::CreatedLandmark& lm,
@@ -122,6 +127,18 @@ class FrontendStage final : public bus::Stage {
   std::deque<std::pair<Utime, Pose2>> odometry_;  // recent cumulative poses
   std::deque<View> views_;
   cv::Mat gray_;
+  // Lock-step replay: SIFT of the next frame, extracted on another thread
+  // while the events before it are handled (prefetch()).
+  struct PrefetchedFeatures {
+    bool ok = false;  // false: the image is malformed (process() reports it)
+    frontend::Features features;
+    double sift_ms = 0;
+  };
+  frontend::FeatureExtractor prefetch_extractor_;  // used by prefetch_worker_ only
+  cv::Mat prefetch_gray_;
+  bus::SerialWorker prefetch_worker_;
+  std::deque<std::pair<std::pair<Utime, int64_t>, std::future<PrefetchedFeatures>>>
+      prefetched_;  // (utime, seq) of the frame, its features; in delivery order
   int64_t next_landmark_ = 1;
   // Replica state (under index_mutex_).
   struct Pending {

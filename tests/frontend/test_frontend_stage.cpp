@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <vslam/ground_truth_pose_t.hpp>
+#include <vslam/health_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
@@ -36,32 +37,46 @@ double median(std::vector<double> v) {
   return v.empty() ? NAN : v[v.size() / 2];
 }
 
-}  // namespace
-
-TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
-  const fs::path dir = vslam::test::scratchDir("frontend_stage");
-  const fs::path source(VSLAM_SOURCE_DIR);
-  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
-  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
-  scenario.duration_s = 40;
-  {
-    sim::Simulator simulator(scenario, stack.robot, 1767225600LL * kMicrosPerSecond);
-    sim::LogFileSink sink((dir / "sim.lcmlog").string());
-    while (simulator.step(sink)) {
-    }
-  }
+// Both front-ends of config/vslam.yaml and the landmark DB (in memory: the
+// front-ends propose, it assigns the global ids) over `input` in lock-step.
+bus::ReplayStats replayFrontEnds(const config::StackConfig& stack, const fs::path& input,
+                                 const fs::path& output, size_t prefetch_events = 48,
+                                 bool keep_health = false) {
   bus::ReplayOptions options;
-  options.input = dir / "sim.lcmlog";
-  options.output = dir / "run.lcmlog";
+  options.input = input;
+  options.output = output;
+  options.prefetch_events = prefetch_events;
+  options.keep_health = keep_health;
   bus::LockstepReplay replay(options);
-  // The front-ends propose; the landmark DB (in memory) assigns the global ids.
   auto db_params = stages::LandmarkDbParams::load(stack.process("landmark_db"), stack.robot);
   db_params.map_file.clear();
   replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(db_params));
   for (const char* instance : {"frontend_forward", "frontend_backward"}) {
     replay.addStage(instance, stages::builtinStages().create(stack, instance));
   }
-  replay.run();
+  return replay.run();
+}
+
+fs::path simulateApartment(const config::StackConfig& stack, const fs::path& dir,
+                           double duration_s) {
+  const fs::path source(VSLAM_SOURCE_DIR);
+  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
+  scenario.duration_s = duration_s;
+  sim::Simulator simulator(scenario, stack.robot, 1767225600LL * kMicrosPerSecond);
+  sim::LogFileSink sink((dir / "sim.lcmlog").string());
+  while (simulator.step(sink)) {
+  }
+  return dir / "sim.lcmlog";
+}
+
+}  // namespace
+
+TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
+  const fs::path dir = vslam::test::scratchDir("frontend_stage");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
+  simulateApartment(stack, dir, 40);
+  replayFrontEnds(stack, dir / "sim.lcmlog", dir / "run.lcmlog");
 
   std::vector<vslam::ground_truth_pose_t> truth;
   std::map<int64_t, vslam::landmark_t> landmarks;
@@ -116,5 +131,44 @@ TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
   EXPECT_LT(median(heading), 3.0);
   RecordProperty("accepted", accepted);
   RecordProperty("cross_camera", cross_camera);
+  fs::remove_all(dir);
+}
+
+TEST(FrontendStage, PrefetchedFeaturesChangeNothingInTheReplay) {
+  // Lock-step replay extracts the features of frames a few events ahead on
+  // another thread (Stage::prefetch); the output must be byte for byte what
+  // the replay gives without it.
+  const fs::path dir = vslam::test::scratchDir("frontend_prefetch");
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  const fs::path sim_log = simulateApartment(stack, dir, 12);
+  replayFrontEnds(stack, sim_log, dir / "inline.lcmlog", /*prefetch_events=*/0);
+  replayFrontEnds(stack, sim_log, dir / "prefetched.lcmlog", 48, /*keep_health=*/true);
+
+  std::vector<vslam::test::RecordedEvent> inline_run, prefetched_run;
+  double prefetched_frames = 0;
+  for (auto& e : vslam::test::readLog(dir / "inline.lcmlog")) inline_run.push_back(std::move(e));
+  for (auto& e : vslam::test::readLog(dir / "prefetched.lcmlog")) {
+    if (e.channel != "HEALTH") {
+      prefetched_run.push_back(std::move(e));
+      continue;
+    }
+    const auto h = decode<vslam::health_t>(e);
+    if (h.instance != "frontend_forward") continue;
+    for (const auto& m : h.metrics) {
+      if (m.name == "frames_prefetched") prefetched_frames = std::max(prefetched_frames, m.value);
+    }
+  }
+  // 12 s at 10 Hz: nearly every frame of the camera came prefetched.
+  EXPECT_GE(prefetched_frames, 100);
+  ASSERT_EQ(inline_run.size(), prefetched_run.size());
+  int measurements = 0;
+  for (size_t i = 0; i < inline_run.size(); ++i) {
+    ASSERT_EQ(inline_run[i].channel, prefetched_run[i].channel) << "event " << i;
+    ASSERT_EQ(inline_run[i].data, prefetched_run[i].data)
+        << "event " << i << " on " << inline_run[i].channel;
+    measurements += inline_run[i].channel == "VISUAL_MEASUREMENT";
+  }
+  EXPECT_GT(measurements, 20);
   fs::remove_all(dir);
 }
