@@ -7,7 +7,14 @@ namespace vslam::bus {
 HealthBarrier::HealthBarrier(lcm::LCM& lcm, const std::string& health_channel,
                              const std::vector<std::string>& instances)
     : lcm_(lcm), pending_(instances.begin(), instances.end()) {
-  subscription_ = lcm_.subscribe(health_channel, &HealthBarrier::onMessage, this);
+  // subscribeFunction, as the replay does: LCM 1.3.1's member-function
+  // subscribe trips UBSan's vptr check.
+  subscription_ = lcm_.subscribeFunction(
+      health_channel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string& channel, HealthBarrier* self) {
+        self->onMessage(rbuf, channel);
+      },
+      this);
 }
 
 HealthBarrier::~HealthBarrier() {

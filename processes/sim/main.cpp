@@ -32,7 +32,8 @@ void usage() {
          "                        instance's `scenario` in the stack config)\n"
          "  --out LOG             write an LCM log as fast as possible instead of publishing\n"
          "  --speed X             live: publish at X times real time (default: config, else 1)\n"
-         "  --duration S          stop after S simulated seconds\n"
+         "  --duration S          stop after S simulated seconds (default: config, else the\n"
+         "                        scenario's own length)\n"
          "  --start-time UNIX_S   time stamp of the first message (default: now live, 2026-01-01 "
          "with --out)\n"
          "  --config FILE         stack configuration: robot cameras and channels (default "
@@ -159,9 +160,11 @@ int main(int argc, char** argv) {
       block.getEnum("role", {"sim"});
       const std::string configured = block.getString("scenario", "");
       const double configured_speed = block.getDouble("speed", 1.0, config::InRange{0.01, 1000});
+      const double configured_duration = block.getDouble("duration", 0.0, config::InRange{0, 1e7});
       block.requireAllKeysUsed();
       if (scenario_arg.empty()) scenario_arg = configured;
       if (speed <= 0) speed = configured_speed;
+      if (duration <= 0) duration = configured_duration;
     }
     if (scenario_arg.empty()) {
       std::cerr << "vslam-sim: no scenario: give --scenario NAME or set processes." << instance
