@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <vslam/appearance_event_t.hpp>
 #include <vslam/appearance_map_t.hpp>
 
 #include "appearance/map_file.hpp"
+#include "stages/image_gray.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -135,52 +134,16 @@ void AppearanceStage::onOdometry(const vslam::odometry_t& m) {
   }
 }
 
-bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::image_t& msg) {
-  if (msg.encoding == vslam::image_t::ENCODING_JPEG) {
-    gray_ = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
-    if (gray_.empty() || gray_.cols != msg.width || gray_.rows != msg.height) {
-      ctx_->bus.reportMalformed(camera.image_channel, "JPEG does not decode to the announced size");
-      return false;
-    }
-    return true;
-  }
-  const bool gray = msg.encoding == vslam::image_t::ENCODING_GRAY8;
-  const cv::Mat view(msg.height, msg.width, gray ? CV_8UC1 : CV_8UC3,
-                     const_cast<uint8_t*>(msg.data.data()), static_cast<size_t>(msg.row_stride));
-  if (gray) {
-    view.copyTo(gray_);
-  } else {
-    cv::cvtColor(view, gray_, cv::COLOR_BGR2GRAY);
-  }
-  return true;
+bool AppearanceStage::validImage(const config::CameraConfig& camera, const vslam::image_t& msg) {
+  const auto error = checkImage(camera, msg);
+  if (error) ctx_->bus.reportMalformed(camera.image_channel, *error);
+  return !error;
 }
 
-bool AppearanceStage::validImage(const config::CameraConfig& camera, const vslam::image_t& msg) {
-  const std::string& channel = camera.image_channel;
-  if (msg.width != camera.width || msg.height != camera.height) {
-    ctx_->bus.reportMalformed(channel, "image " + std::to_string(msg.width) + "x" +
-                                           std::to_string(msg.height) + ", but camera '" +
-                                           camera.name + "' is " + std::to_string(camera.width) +
-                                           "x" + std::to_string(camera.height));
-    return false;
-  }
-  switch (msg.encoding) {
-    case vslam::image_t::ENCODING_GRAY8:
-    case vslam::image_t::ENCODING_BGR8: {
-      const int channels = msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3;
-      if (msg.row_stride < msg.width * channels ||
-          msg.data.size() < static_cast<size_t>(msg.height) * static_cast<size_t>(msg.row_stride)) {
-        ctx_->bus.reportMalformed(channel, "image data shorter than height x row_stride");
-        return false;
-      }
-      return true;
-    }
-    case vslam::image_t::ENCODING_JPEG:
-      return true;  // checked when decoded
-    default:
-      ctx_->bus.reportMalformed(channel, "unknown encoding " + std::to_string(msg.encoding));
-      return false;
-  }
+bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::image_t& msg) {
+  const auto error = imageToGray(msg, &gray_);
+  if (error) ctx_->bus.reportMalformed(camera.image_channel, *error);
+  return !error;
 }
 
 void AppearanceStage::onImage(size_t camera, const vslam::image_t& msg) {

@@ -2,11 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <vslam/landmark_request_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
+#include "stages/image_gray.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -313,45 +312,6 @@ void FrontendStage::resendPending() {
   }
 }
 
-// The image as 8-bit gray, or why it cannot be one. Pure: prefetch() runs it
-// on another thread.
-std::optional<std::string> FrontendStage::decodeGray(const vslam::image_t& msg,
-                                                     cv::Mat* gray) const {
-  if (msg.width != params_.camera.width || msg.height != params_.camera.height) {
-    return "image " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
-           ", but camera '" + params_.camera.name + "' is calibrated for " +
-           std::to_string(params_.camera.width) + "x" + std::to_string(params_.camera.height);
-  }
-  const size_t rows = static_cast<size_t>(msg.height);
-  switch (msg.encoding) {
-    case vslam::image_t::ENCODING_GRAY8:
-    case vslam::image_t::ENCODING_BGR8: {
-      const int channels = msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3;
-      if (msg.row_stride < msg.width * channels ||
-          msg.data.size() < rows * static_cast<size_t>(msg.row_stride)) {
-        return std::string("image data shorter than height x row_stride");
-      }
-      const cv::Mat view(msg.height, msg.width, channels == 1 ? CV_8UC1 : CV_8UC3,
-                         const_cast<uint8_t*>(msg.data.data()),
-                         static_cast<size_t>(msg.row_stride));
-      if (channels == 1) {
-        view.copyTo(*gray);
-      } else {
-        cv::cvtColor(view, *gray, cv::COLOR_BGR2GRAY);
-      }
-      return std::nullopt;
-    }
-    case vslam::image_t::ENCODING_JPEG:
-      *gray = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
-      if (gray->empty() || gray->cols != msg.width || gray->rows != msg.height) {
-        return std::string("JPEG does not decode to the announced size");
-      }
-      return std::nullopt;
-    default:
-      return "unknown encoding " + std::to_string(msg.encoding);
-  }
-}
-
 void FrontendStage::prefetch(const std::string& channel, const void* data, size_t size) {
   // Frames of this camera a few events ahead, extracted in order on one
   // thread (one extractor, reused buffers). Features do not depend on the
@@ -363,7 +323,9 @@ void FrontendStage::prefetch(const std::string& channel, const void* data, size_
   const std::pair<Utime, int64_t> frame{msg->utime, msg->seq};
   prefetched_.emplace_back(frame, prefetch_worker_.submit([this, msg] {
     PrefetchedFeatures out;
-    if (decodeGray(*msg, &prefetch_gray_)) return out;  // process() reports it
+    if (checkImage(params_.camera, *msg) || imageToGray(*msg, &prefetch_gray_)) {
+      return out;  // malformed: process() reports it
+    }
     const Utime t0 = monotonicUtime();
     prefetch_extractor_.extract(prefetch_gray_, &out.features);
     out.sift_ms = msSince(t0);
@@ -386,7 +348,9 @@ void FrontendStage::process(vslam::image_t& msg) {
   }
   const bool have_features = prefetched && prefetched->ok;
   if (!have_features) {
-    if (const auto error = decodeGray(msg, &gray_)) {
+    auto error = checkImage(params_.camera, msg);
+    if (!error) error = imageToGray(msg, &gray_);
+    if (error) {
       ctx_->bus.reportMalformed(params_.camera.image_channel, *error);
       return;
     }

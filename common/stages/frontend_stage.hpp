@@ -109,7 +109,6 @@ class FrontendStage final : public bus::Stage {
   void addToReplica(const vslam::landmark_t& l, const std::string& channel);  // index_mutex_ held
   void resendPending();
   void process(vslam::image_t& msg);
-  std::optional<std::string> decodeGray(const vslam::image_t& msg, cv::Mat* gray) const;
   bool odometryAt(Utime t, Pose2* pose);
   void considerCreation(View view, bool place_covered);
   vslam::landmark_update_t makeProposal(const View& view1, const frontend::CreatedLandmark& lm,
