@@ -41,6 +41,12 @@ inline uint32_t squaredDistanceU8(const uint8_t* a, const uint8_t* b) {
 #endif
 }
 
+// squaredDistanceU8(q, points + 128 i) for i in [0, n), into out[0..n): the
+// same exact integers, with AVX2 where the CPU has it (checked once, at run
+// time; the build itself targets baseline x86-64). The verification of
+// recognize() spends most of its time here.
+void squaredDistancesU8(const uint8_t* q, const uint8_t* points, int n, uint32_t* out);
+
 // CV_32F or CV_8U descriptors (n x 128) to a continuous CV_8U matrix: float
 // values are rounded and saturated to 0..255 (exact for OpenCV's SIFT, whose
 // float descriptors hold integers). Throws std::invalid_argument otherwise.

@@ -10,7 +10,55 @@
 
 #include "frontend/descriptor_distance.hpp"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 namespace vslam::frontend {
+
+namespace {
+#if defined(__x86_64__) && defined(__GNUC__)
+// squaredDistanceU8's arithmetic on 32 bytes at a time.
+__attribute__((target("avx2"))) void squaredDistancesAvx2(const uint8_t* q, const uint8_t* points,
+                                                          int n, uint32_t* out) {
+  const __m256i zero = _mm256_setzero_si256();
+  __m256i qv[kDescriptorBytes / 32];
+  for (int k = 0; k < kDescriptorBytes / 32; ++k) {
+    qv[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q + 32 * k));
+  }
+  for (int i = 0; i < n; ++i) {
+    const uint8_t* b = points + static_cast<size_t>(i) * kDescriptorBytes;
+    __m256i acc = _mm256_setzero_si256();
+    for (int k = 0; k < kDescriptorBytes / 32; ++k) {
+      const __m256i vb = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + 32 * k));
+      const __m256i diff =
+          _mm256_or_si256(_mm256_subs_epu8(qv[k], vb), _mm256_subs_epu8(vb, qv[k]));
+      const __m256i lo = _mm256_unpacklo_epi8(diff, zero);
+      const __m256i hi = _mm256_unpackhi_epi8(diff, zero);
+      acc = _mm256_add_epi32(acc, _mm256_madd_epi16(lo, lo));
+      acc = _mm256_add_epi32(acc, _mm256_madd_epi16(hi, hi));
+    }
+    __m128i sum = _mm_add_epi32(_mm256_castsi256_si128(acc), _mm256_extracti128_si256(acc, 1));
+    sum = _mm_add_epi32(sum, _mm_shuffle_epi32(sum, _MM_SHUFFLE(1, 0, 3, 2)));
+    sum = _mm_add_epi32(sum, _mm_shuffle_epi32(sum, _MM_SHUFFLE(2, 3, 0, 1)));
+    out[i] = static_cast<uint32_t>(_mm_cvtsi128_si32(sum));
+  }
+}
+#endif
+}  // namespace
+
+void squaredDistancesU8(const uint8_t* q, const uint8_t* points, int n, uint32_t* out) {
+#if defined(__x86_64__) && defined(__GNUC__)
+  static const bool has_avx2 = __builtin_cpu_supports("avx2");
+  if (has_avx2) {
+    squaredDistancesAvx2(q, points, n, out);
+    return;
+  }
+#endif
+  for (int i = 0; i < n; ++i) {
+    out[i] = squaredDistanceU8(q, points + static_cast<size_t>(i) * kDescriptorBytes);
+  }
+}
 
 cv::Mat toDescriptorsU8(const cv::Mat& descriptors) {
   if (descriptors.empty()) return cv::Mat(0, kDescriptorBytes, CV_8U);
@@ -308,15 +356,17 @@ std::vector<Recognition> LandmarkIndex::verify(const Features& frame, const cv::
     int point = -1;
   };
   std::vector<Nearest> nearest(num_slots * num_features);
+  std::vector<uint32_t> distances;
   for (size_t c = 0; c < num_slots; ++c) {
     const cv::Mat& d = entries_[slots[c]].model.descriptors;
     const uint8_t* points = d.rows > 0 ? d.ptr<uint8_t>(0) : nullptr;
+    distances.resize(static_cast<size_t>(d.rows));
     for (size_t f = 0; f < num_features; ++f) {
       const uint8_t* q = frame_u8.ptr<uint8_t>(static_cast<int>(f));
       Nearest& n = nearest[c * num_features + f];
+      squaredDistancesU8(q, points, d.rows, distances.data());
       for (int p = 0; p < d.rows; ++p) {
-        const uint32_t dist =
-            squaredDistanceU8(q, points + static_cast<size_t>(p) * kDescriptorBytes);
+        const uint32_t dist = distances[static_cast<size_t>(p)];
         if (dist < n.d1) {
           n.d2 = n.d1;
           n.d1 = dist;

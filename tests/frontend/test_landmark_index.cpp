@@ -222,6 +222,21 @@ TEST(LandmarkIndex, DescriptorsAreHeldAsBytesAndDistancesAreExact) {
     EXPECT_EQ(squaredDistanceU8(u.ptr<uint8_t>(0), u.ptr<uint8_t>(i)),
               static_cast<uint32_t>(std::lround(cv::norm(a, b, cv::NORM_L2SQR))));
   }
+  // The batched distances (AVX2 where the CPU has it) are the same integers,
+  // also at the extremes: all 0 against all 255 is 128 * 255^2.
+  cv::Mat extremes(2, kDescriptorBytes, CV_8U);
+  extremes.row(0).setTo(0);
+  extremes.row(1).setTo(255);
+  std::vector<uint32_t> batch(static_cast<size_t>(u.rows));
+  squaredDistancesU8(u.ptr<uint8_t>(0), u.ptr<uint8_t>(0), u.rows, batch.data());
+  for (int i = 0; i < u.rows; ++i) {
+    EXPECT_EQ(batch[static_cast<size_t>(i)],
+              squaredDistanceU8(u.ptr<uint8_t>(0), u.ptr<uint8_t>(i)));
+  }
+  uint32_t extreme = 0;
+  squaredDistancesU8(extremes.ptr<uint8_t>(0), extremes.ptr<uint8_t>(1), 1, &extreme);
+  EXPECT_EQ(extreme, 128u * 255u * 255u);
+
   LandmarkIndex index;
   index.add(makeLandmark(3, f));
   ASSERT_NE(index.find(3), nullptr);
