@@ -228,8 +228,8 @@ TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
   // Loose: the accuracy of the filter is the library tests' business; this
   // catches an adapter that feeds it wrong (e.g. measurements not moved to
   // the particles' time, frames mixed up), which makes it diverge. (With
-  // the configuration's one measurement per landmark per second, this
-  // synthetic world's independent 5 Hz measurements are used at 1 Hz: ~0.31 m.)
+  // the configuration's one measurement per landmark per 2 s, this synthetic
+  // world's independent 5 Hz measurements are used at 0.5 Hz: ~0.16 m.)
   EXPECT_LT(late[late.size() / 2], 0.35);
   EXPECT_LT(late.back(), 0.6);
 
