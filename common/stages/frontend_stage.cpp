@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vslam/landmark_request_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 

@@ -31,7 +31,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <set>
 #include <vslam/image_t.hpp>
 #include <vslam/landmark_summary_t.hpp>
@@ -126,8 +125,9 @@ class FrontendStage final : public bus::Stage {
   std::deque<std::pair<Utime, Pose2>> odometry_;  // recent cumulative poses
   std::deque<View> views_;
   cv::Mat gray_;
-  // Lock-step replay: SIFT of the next frame, extracted on another thread
-  // while the events before it are handled (prefetch()).
+  // Lock-step replay: SIFT of the coming frames of this camera, extracted in
+  // order on another thread while the events before them are handled
+  // (prefetch()).
   struct PrefetchedFeatures {
     bool ok = false;  // false: the image is malformed (process() reports it)
     frontend::Features features;
