@@ -25,8 +25,23 @@ const char* toString(MeasurementUse u) {
   return "?";
 }
 
+void MapCorrectionParams::validate() const {
+  graph.validate();
+  if (!(solve_interval_s >= 0))
+    throw std::invalid_argument("backend: map_correction.solve_interval_s must be >= 0");
+  if (!(max_outlier_fraction >= 0 && max_outlier_fraction <= 1))
+    throw std::invalid_argument("backend: map_correction.max_outlier_fraction must be in [0, 1]");
+  if (!(landmark_sigma_xy_m > 0) || !(landmark_sigma_theta_rad > 0))
+    throw std::invalid_argument("backend: map_correction landmark sigmas must be > 0");
+  if (!(kidnap_jump_m > 0) || !(kidnap_jump_rad > 0))
+    throw std::invalid_argument("backend: map_correction kidnap jump thresholds must be > 0");
+  if (!(measurement_min_interval_s >= 0))
+    throw std::invalid_argument("backend: map_correction.measurement_min_interval_s must be >= 0");
+}
+
 void BackendParams::validate() const {
   filter.validate();
+  if (map_correction.enabled) map_correction.validate();
   prefilter.validate();
   if (!(max_step_m > 0) || !(max_step_rad > 0))
     throw std::invalid_argument("backend: max_step_m and max_step_rad must be > 0");
@@ -42,7 +57,9 @@ void BackendParams::validate() const {
 Backend::Backend(BackendParams params)
     : params_((params.validate(), std::move(params))),
       filter_(params_.filter),
-      increments_(params_.max_step_m, params_.max_step_rad) {}
+      increments_(params_.max_step_m, params_.max_step_rad) {
+  if (params_.map_correction.enabled) graph_.emplace(params_.map_correction.graph);
+}
 
 OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading) {
   Pose2 step;
@@ -50,14 +67,21 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
   switch (outcome) {
     case OdometryIncrements::Outcome::kStep:
       filter_.predict(step);
+      distance_m_ += std::hypot(step.x, step.y);
+      rotation_rad_ += std::abs(step.theta);
       ++counters_.odometry_steps;
       break;
     case OdometryIncrements::Outcome::kFirst:
       break;
     case OdometryIncrements::Outcome::kReset:
     case OdometryIncrements::Outcome::kImplausible:
-      // A new odometry frame: the history no longer relates to it.
+      // A new odometry frame: the history no longer relates to it, nor do
+      // the pose graph's odometry edges.
       history_.clear();
+      if (graph_ && graph_->numNodes() > 0) {
+        graph_->breakOdometry(reading.utime);
+        ++counters_.graph_odometry_breaks;
+      }
       ++counters_.odometry_ignored;
       break;
     case OdometryIncrements::Outcome::kStale:
@@ -65,68 +89,154 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
       ++counters_.odometry_ignored;
       return outcome;
   }
-  history_.push_back(reading);
+  history_.push_back({reading, distance_m_, rotation_rad_});
+  if (graph_ && graph_->numNodes() == 0) {
+    // The map's origin: the filter's frame is the robot pose at start-up.
+    graph_->addNode(reading.utime, {reading.pose, distance_m_, rotation_rad_},
+                    filter_.estimate().mean);
+  }
   const int64_t keep_us = static_cast<int64_t>(params_.max_measurement_age_s * 1e6);
-  while (history_.size() > 2 && history_.front().utime < reading.utime - keep_us) {
+  while (history_.size() > 2 && history_.front().reading.utime < reading.utime - keep_us) {
     history_.pop_front();
   }
   return outcome;
 }
 
-std::optional<Pose2> Backend::odometryAt(int64_t utime, MeasurementUse* why) const {
+std::optional<OdometryAt> Backend::odometryAt(int64_t utime, MeasurementUse* why) const {
   if (history_.empty()) {
     *why = MeasurementUse::kNoOdometry;
     return std::nullopt;
   }
-  const OdometryReading& newest = history_.back();
-  if (utime >= newest.utime) {
-    if (static_cast<double>(utime - newest.utime) > params_.max_measurement_lead_s * 1e6) {
+  const HistoryEntry& newest = history_.back();
+  if (utime >= newest.reading.utime) {
+    if (static_cast<double>(utime - newest.reading.utime) > params_.max_measurement_lead_s * 1e6) {
       *why = MeasurementUse::kTooNew;
       return std::nullopt;
     }
-    return newest.pose;  // at most a little ahead: the robot's newest known pose
+    // At most a little ahead: the robot's newest known pose.
+    return OdometryAt{newest.reading.pose, newest.distance_m, newest.rotation_rad};
   }
-  if (utime < history_.front().utime) {
+  if (utime < history_.front().reading.utime) {
     *why = MeasurementUse::kTooOld;
     return std::nullopt;
   }
   // history_ is in increasing utime (readings with non-increasing seq are dropped,
   // and seq increases with time); find the bracketing pair.
   size_t hi = history_.size() - 1;
-  while (hi > 0 && history_[hi - 1].utime > utime) --hi;
-  const OdometryReading& a = history_[hi - 1];
-  const OdometryReading& b = history_[hi];
-  const double span = static_cast<double>(b.utime - a.utime);
-  const double f = span > 0 ? static_cast<double>(utime - a.utime) / span : 1.0;
-  const Pose2 d = a.pose.between(b.pose);
-  return a.pose.compose({f * d.x, f * d.y, f * d.theta});
+  while (hi > 0 && history_[hi - 1].reading.utime > utime) --hi;
+  const HistoryEntry& a = history_[hi - 1];
+  const HistoryEntry& b = history_[hi];
+  const double span = static_cast<double>(b.reading.utime - a.reading.utime);
+  const double f = span > 0 ? static_cast<double>(utime - a.reading.utime) / span : 1.0;
+  const Pose2 d = a.reading.pose.between(b.reading.pose);
+  return OdometryAt{a.reading.pose.compose({f * d.x, f * d.y, f * d.theta}),
+                    a.distance_m + f * (b.distance_m - a.distance_m),
+                    a.rotation_rad + f * (b.rotation_rad - a.rotation_rad)};
 }
 
-MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
-  MeasurementResult result;
-  result.status =
-      prefilter({m.relative, m.proj_err_rms_px, m.num_points, m.slope}, params_.prefilter);
-  ++counters_.status[static_cast<int>(result.status)];
-  auto finish = [&](MeasurementUse use) {
-    result.use = use;
-    ++counters_.use[static_cast<int>(use)];
-    return result;
-  };
-  if (result.status != MeasurementStatus::kAccepted) return finish(MeasurementUse::kRejected);
-  if (m.landmark_id < 0) return finish(MeasurementUse::kInvalidLandmark);
+Pose2 Backend::estimateAt(const Pose2& then) const {
+  const Pose2 d = then.between(history_.back().reading.pose);
+  return filter_.estimate().mean.compose(d.inverse());
+}
 
-  MeasurementUse why = MeasurementUse::kUsed;
-  const std::optional<Pose2> then = odometryAt(m.utime, &why);
-  if (!then) return finish(why);
-  if (params_.landmark_min_interval_s > 0) {
-    const auto last = last_used_.find(m.landmark_id);
-    const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
-    if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us)
-      return finish(MeasurementUse::kThinned);
-    last_used_[m.landmark_id] = m.utime;
+void Backend::joinOrBreakAfterKidnap() {
+  // Was it a kidnapping? The filter cannot tell one from a loop closure
+  // after a long drift (paper 6.2); the size of the jump can. If the pose
+  // it relocalized to is far from where the odometry carried the graph's
+  // newest node, the robot was moved: no odometry edge may join the nodes
+  // before and after. Otherwise it was a loop closure, the most valuable
+  // constraint the graph gets.
+  if (newest_graph_node_ < 0) return;
+  const HistoryEntry& now = history_.back();
+  const Pose2 predicted =
+      graph_->nodePose(newest_graph_node_)
+          .compose(graph_->nodeOdometry(newest_graph_node_).pose.between(now.reading.pose));
+  const Pose2 relocalized = filter_.estimate().mean;
+  const bool moved = std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y) >
+                         params_.map_correction.kidnap_jump_m ||
+                     std::abs(wrapAngle(relocalized.theta - predicted.theta)) >
+                         params_.map_correction.kidnap_jump_rad;
+  if (moved) {
+    graph_->breakOdometry(now.reading.utime);
+    ++counters_.graph_odometry_breaks;
   }
+}
+
+bool Backend::addLandmarkCreation(int64_t landmark_id, int64_t created_utime) {
+  if (!graph_ || graph_->hasLandmark(landmark_id) || landmark_id < 0) return false;
+  if (filter_.kidnapped()) {
+    // Where the robot is is unknown, and whether the odometry since the
+    // last node holds (a kidnapping or not) is decided at the recovery.
+    ++counters_.landmark_creations_unused;
+    return false;
+  }
+  MeasurementUse why = MeasurementUse::kUsed;
+  const std::optional<OdometryAt> then = odometryAt(created_utime, &why);
+  if (!then || graph_->numNodes() == 0) {
+    ++counters_.landmark_creations_unused;
+    return false;
+  }
+  const int node = graph_->addNode(created_utime, *then, estimateAt(then->pose));
+  graph_->addLandmark(landmark_id, node);
+  ++counters_.landmarks_in_graph;
+  return true;
+}
+
+void Backend::addToGraph(const MeasurementInput& m, const OdometryAt& then, bool consistent) {
+  if (!consistent || !graph_->hasLandmark(m.landmark_id)) return;
+  if (params_.map_correction.measurement_min_interval_s > 0) {
+    const auto last = graph_last_used_.find(m.landmark_id);
+    const auto min_us =
+        static_cast<int64_t>(params_.map_correction.measurement_min_interval_s * 1e6);
+    if (last != graph_last_used_.end() && m.utime >= last->second &&
+        m.utime - last->second < min_us)
+      return;
+  }
+  if (std::hypot(m.relative.x, m.relative.y) > graph_->params().max_measurement_distance_m) return;
+  const Pose2 filter_then = estimateAt(then.pose);
+  const int node = graph_->addNode(m.utime, then, filter_then);
+  if (!graph_->addMeasurement(m.landmark_id, node, m.relative)) return;
+  graph_last_used_[m.landmark_id] = m.utime;
+  ++counters_.graph_measurements;
+  ++graph_measurements_since_solve_;
+  if (newest_graph_node_ < 0 || m.utime >= graph_->nodeTime(newest_graph_node_)) {
+    newest_graph_node_ = node;
+    newest_graph_node_filter_ = filter_then;
+  }
+  if (m.utime >= next_solve_utime_) {
+    correctMap();
+    next_solve_utime_ =
+        m.utime + static_cast<int64_t>(params_.map_correction.solve_interval_s * 1e6);
+  }
+}
+
+void Backend::correctMap() {
+  if (graph_measurements_since_solve_ == 0) return;
+  graph_measurements_since_solve_ = 0;
+  const PoseGraphSolveSummary s = graph_->solve();
+  counters_.graph_last_solve_ms = s.ms;
+  if (!s.solved) {
+    ++counters_.graph_solve_failures;
+    return;
+  }
+  ++counters_.graph_solves;
+  std::vector<ParticleFilter::CorrectedLandmark> landmarks;
+  for (const auto& [id, pose] : graph_->landmarkPoses()) landmarks.push_back({id, pose});
+  const MapCorrectionParams& mc = params_.map_correction;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  cov(0, 0) = cov(1, 1) = mc.landmark_sigma_xy_m * mc.landmark_sigma_xy_m;
+  cov(2, 2) = mc.landmark_sigma_theta_rad * mc.landmark_sigma_theta_rad;
+  // The particles move with the graph's correction at the newest measured
+  // pose: the graph's estimate there against the filter's.
+  const Pose2 graph_pose = graph_->nodePose(newest_graph_node_);
+  const Pose2 shift = graph_pose.compose(newest_graph_node_filter_.inverse());
+  filter_.correctMap(landmarks, cov, shift);
+  newest_graph_node_filter_ = graph_pose;
+}
+
+Observation Backend::alignedObservation(const MeasurementInput& m, const Pose2& then) const {
   // Move the measurement to the particles' time: y_now = y (+) D.
-  const Pose2 d = then->between(history_.back().pose);
+  const Pose2 d = then.between(history_.back().reading.pose);
   const Pose2& y = m.relative;
   Observation obs;
   obs.landmark_id = m.landmark_id;
@@ -147,12 +257,56 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   r(2, 2) += std::pow(params_.measurement_sigma_theta_rad_per_m * dist, 2);
   obs.covariance =
       jy * r * jy.transpose() + jd * params_.filter.motion.stepCovariance(d) * jd.transpose();
+  return obs;
+}
 
+MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
+  MeasurementResult result;
+  result.status =
+      prefilter({m.relative, m.proj_err_rms_px, m.num_points, m.slope}, params_.prefilter);
+  ++counters_.status[static_cast<int>(result.status)];
+  auto finish = [&](MeasurementUse use) {
+    result.use = use;
+    ++counters_.use[static_cast<int>(use)];
+    return result;
+  };
+  if (result.status != MeasurementStatus::kAccepted) return finish(MeasurementUse::kRejected);
+  if (m.landmark_id < 0) return finish(MeasurementUse::kInvalidLandmark);
+
+  MeasurementUse why = MeasurementUse::kUsed;
+  const std::optional<OdometryAt> then_odometry = odometryAt(m.utime, &why);
+  if (!then_odometry) return finish(why);
+  const Observation obs = alignedObservation(m, then_odometry->pose);
+  if (params_.landmark_min_interval_s > 0) {
+    const auto last = last_used_.find(m.landmark_id);
+    const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
+    if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us) {
+      // Not for the filter, but the pose graph models the correlation (its
+      // measurement error grows with the distance) and may take it.
+      if (graph_ && !filter_.kidnapped()) {
+        addToGraph(m, *then_odometry,
+                   filter_.outlierFraction(obs) <= params_.map_correction.max_outlier_fraction);
+      }
+      return finish(MeasurementUse::kThinned);
+    }
+    last_used_[m.landmark_id] = m.utime;
+  }
   result.update = filter_.update(obs);
   counters_.landmarks_initialized += result.update.kind == UpdateKind::kInitialized;
   counters_.kidnaps_detected += result.update.kidnap_detected;
   counters_.recoveries += result.update.recovered;
   counters_.resamplings += result.update.resampled;
+  if (graph_) {
+    if (result.update.recovered) joinOrBreakAfterKidnap();
+    if (!filter_.kidnapped()) {
+      const UpdateReport& u = result.update;
+      addToGraph(m, *then_odometry,
+                 u.kind == UpdateKind::kInitialized ||
+                     static_cast<double>(u.num_outliers) <=
+                         params_.map_correction.max_outlier_fraction *
+                             static_cast<double>(filter_.particles().size()));
+    }
+  }
   return finish(MeasurementUse::kUsed);
 }
 

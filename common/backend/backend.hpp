@@ -18,6 +18,12 @@
 // (interpolated at t_image), with covariance J_y R J_y^T + J_D Q(D) J_D^T.
 // Older measurements, and ones more than max_measurement_lead_s newer than
 // the newest odometry, are not used (counted).
+//
+// Map correction (optional, MapCorrectionParams): the measurements the
+// filter found consistent, the odometry between them and the landmarks'
+// creation times (addLandmarkCreation) also go into a pose graph; every
+// solve_interval_s it is solved and its landmark poses replace the filter's
+// (docs/backend.md, "Map correction").
 
 #include <array>
 #include <cstdint>
@@ -26,13 +32,39 @@
 #include <unordered_map>
 
 #include "backend/particle_filter.hpp"
+#include "backend/pose_graph.hpp"
 #include "backend/prefilter.hpp"
 #include "odometry/motion_model.hpp"
 
 namespace vslam::backend {
 
+struct MapCorrectionParams {
+  bool enabled = false;
+  double solve_interval_s = 2.0;  // robot time between solves (each needs a new measurement)
+  // A used measurement enters the graph when at most this fraction of the
+  // particles found it an outlier (beyond the gate): the filter, localized,
+  // tells aliased recognitions from loop closures better than the graph can.
+  double max_outlier_fraction = 0.5;
+  // At most one measurement per landmark per interval into the graph
+  // (independently of the filter's landmark_min_interval_s). 0: all.
+  double measurement_min_interval_s = 0.5;
+  // After a kidnapping, a relocalized pose this far from where the odometry
+  // carried the graph's newest node means the robot was moved (the graph's
+  // odometry chain is broken there); nearer, it was a loop closure after a
+  // long drift, which the filter cannot tell from a kidnapping.
+  double kidnap_jump_m = 1.5;
+  double kidnap_jump_rad = 30 * M_PI / 180;
+  // The filter's landmarks take the graph's poses with this covariance.
+  double landmark_sigma_xy_m = 0.02;
+  double landmark_sigma_theta_rad = 0.5 * M_PI / 180;
+  PoseGraphParams graph;
+
+  void validate() const;
+};
+
 struct BackendParams {
   FilterParams filter;
+  MapCorrectionParams map_correction;
   PrefilterParams prefilter;
   double max_step_m = 1.0;  // odometry jumps larger than this are faults, not motion
   double max_step_rad = M_PI / 2;
@@ -93,6 +125,14 @@ struct BackendCounters {
   int64_t resamplings = 0;
   int64_t odometry_steps = 0;
   int64_t odometry_ignored = 0;  // stale, invalid, reset, implausible
+  // Map correction.
+  int64_t landmarks_in_graph = 0;         // creation times placed in the pose graph
+  int64_t landmark_creations_unused = 0;  // creation time outside the odometry history
+  int64_t graph_measurements = 0;         // measurements added to the pose graph
+  int64_t graph_solves = 0;
+  int64_t graph_solve_failures = 0;
+  int64_t graph_odometry_breaks = 0;  // kidnappings (and odometry resets) that split the graph
+  double graph_last_solve_ms = 0;
 };
 
 class Backend {
@@ -101,22 +141,50 @@ class Backend {
 
   OdometryIncrements::Outcome addOdometry(const OdometryReading& reading);
   MeasurementResult addMeasurement(const MeasurementInput& m);
+  // A landmark's creation time (the reference view's capture time: its pose
+  // is the robot pose then). Only map correction uses it; a landmark whose
+  // creation time is unknown or outside the odometry history stays out of
+  // the pose graph (the filter still uses it). Returns whether it went in.
+  bool addLandmarkCreation(int64_t landmark_id, int64_t created_utime);
 
   const ParticleFilter& filter() const { return filter_; }
   ParticleFilter& filter() { return filter_; }
   const BackendCounters& counters() const { return counters_; }
   // The newest odometry reading the particles are at (none before the first).
   const std::optional<OdometryReading>& lastOdometry() const { return increments_.last(); }
+  // The pose graph of map correction (nullptr when disabled).
+  const PoseGraph* poseGraph() const { return graph_ ? &*graph_ : nullptr; }
 
  private:
   // The odometry pose at `utime` from the history (linear interpolation), or
   // nothing if outside it.
-  std::optional<Pose2> odometryAt(int64_t utime, MeasurementUse* why) const;
+  std::optional<OdometryAt> odometryAt(int64_t utime, MeasurementUse* why) const;
+  // The filter's estimate moved back by the odometry to a time whose
+  // odometry is `then`.
+  Pose2 estimateAt(const Pose2& then) const;
+  Observation alignedObservation(const MeasurementInput& m, const Pose2& then) const;
+  // A measurement the filter found consistent (or not: then it is dropped).
+  void addToGraph(const MeasurementInput& m, const OdometryAt& then, bool consistent);
+  void correctMap();
+  void joinOrBreakAfterKidnap();
+
+  struct HistoryEntry {
+    OdometryReading reading;
+    double distance_m;    // path driven since the start
+    double rotation_rad;  // and turned
+  };
 
   BackendParams params_;
   ParticleFilter filter_;
   OdometryIncrements increments_;
-  std::deque<OdometryReading> history_;  // accepted readings, oldest first
+  std::deque<HistoryEntry> history_;  // accepted readings, oldest first
+  double distance_m_ = 0, rotation_rad_ = 0;
+  std::optional<PoseGraph> graph_;
+  int64_t next_solve_utime_ = 0;
+  int64_t graph_measurements_since_solve_ = 0;
+  std::unordered_map<int64_t, int64_t> graph_last_used_;  // landmark id -> utime in the graph
+  int newest_graph_node_ = -1;      // the newest measurement's node in the graph...
+  Pose2 newest_graph_node_filter_;  // ...and the filter's estimate there
   std::unordered_map<int64_t, int64_t>
       last_used_;  // landmark id -> utime of its last used measurement
   BackendCounters counters_;

@@ -410,6 +410,41 @@ void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
   for (Particle& p : particles_) p.map = map;
 }
 
+double ParticleFilter::outlierFraction(const Observation& obs) const {
+  const int64_t slot = slotOf(obs.landmark_id);
+  if (slot < 0 || particles_.empty()) return 1.0;
+  const Eigen::Matrix3d r =
+      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  size_t outliers = 0;
+  for (const Particle& p : particles_) {
+    const LandmarkEstimate* lm = p.map.find(static_cast<uint32_t>(slot));
+    if (lm == nullptr || innovation(*lm, p.pose, obs.relative, r).mahalanobis_sq >
+                             params_.outlier.gate_mahalanobis_sq)
+      ++outliers;
+  }
+  return static_cast<double>(outliers) / static_cast<double>(particles_.size());
+}
+
+void ParticleFilter::correctMap(const std::vector<CorrectedLandmark>& landmarks,
+                                const Eigen::Matrix3d& landmark_covariance, const Pose2& shift) {
+  if (!shift.isFinite() || !landmark_covariance.allFinite())
+    throw std::invalid_argument("backend filter: non-finite map correction");
+  LandmarkMap map = particles_[bestParticle()].map;
+  for (const CorrectedLandmark& l : landmarks) {
+    const int64_t slot = slotOf(l.id);
+    if (slot < 0 || !l.pose.isFinite() || map.find(static_cast<uint32_t>(slot)) == nullptr)
+      continue;
+    LandmarkEstimate& e = map.mutableSlot(static_cast<uint32_t>(slot));
+    e.mean = l.pose.vector();
+    e.covariance = landmark_covariance;
+  }
+  for (Particle& p : particles_) {
+    p.map = map;
+    p.pose = shift.compose(p.pose);
+    p.anchor = shift.compose(p.anchor);
+  }
+}
+
 PoseEstimate ParticleFilter::estimate() const {
   const std::vector<double> w = normalizedWeights();
   double sx = 0, sy = 0, sc = 0, ss = 0;

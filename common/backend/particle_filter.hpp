@@ -175,6 +175,21 @@ class ParticleFilter {
     LandmarkEstimate estimate;  // num_observations >= 1
   };
   void loadMap(const std::vector<KnownLandmark>& landmarks);
+  // Map correction (docs/backend.md, "Map correction"): every particle takes
+  // the best particle's map with the given landmarks set to the given poses
+  // and covariance (one shared map: O(landmarks + particles)), and its pose
+  // and anchor moved by `shift` (a map-frame transform, applied on the left).
+  // Landmarks the filter has not seen are skipped; weights are kept.
+  struct CorrectedLandmark {
+    int64_t id;
+    Pose2 pose;
+  };
+  void correctMap(const std::vector<CorrectedLandmark>& landmarks,
+                  const Eigen::Matrix3d& landmark_covariance, const Pose2& shift);
+
+  // The fraction of particles for which the observation of a known landmark
+  // is beyond the outlier gate (1 for an unknown landmark), without any update.
+  double outlierFraction(const Observation& obs) const;
 
   PoseEstimate estimate() const;
   double effectiveSampleSize() const;

@@ -1,5 +1,6 @@
 #include "stages/backend_stage.hpp"
 
+#include <vslam/landmark_update_t.hpp>
 #include <vslam/map_t.hpp>
 #include <vslam/particle_set_t.hpp>
 #include <vslam/pose_estimate_t.hpp>
@@ -108,7 +109,41 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     k.detect_landmarks = static_cast<int>(kd.getInt("detect_landmarks", 2, InRange{1, 1000}));
     kd.requireAllKeysUsed();
   }
+  if (node.has("map_correction")) {
+    const config::ConfigNode mc = node.child("map_correction");
+    backend::MapCorrectionParams& m = b.map_correction;
+    m.enabled = mc.getBool("enabled", false);
+    m.solve_interval_s = mc.getDouble("solve_interval_s", 2.0, InRange{0, 3600});
+    m.max_outlier_fraction = mc.getDouble("max_outlier_fraction", 0.5, InRange{0, 1});
+    m.measurement_min_interval_s =
+        mc.getDouble("measurement_min_interval_s", 0.5, InRange{0, 3600});
+    m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", 1.5, InRange{1e-3, 1000});
+    m.kidnap_jump_rad = degToRad(mc.getDouble("kidnap_jump_deg", 30.0, InRange{1e-3, 180}));
+    m.landmark_sigma_xy_m = mc.getDouble("landmark_sigma_xy_m", 0.02, InRange{1e-4, 10});
+    m.landmark_sigma_theta_rad =
+        degToRad(mc.getDouble("landmark_sigma_theta_deg", 0.5, InRange{1e-3, 90}));
+    backend::PoseGraphParams& g = m.graph;
+    // The odometry noise is the motion model's.
+    g.sigma_translation = std::max(f.motion.sigma_translation, 1e-4);
+    g.sigma_rotation = std::max(f.motion.sigma_rotation, 1e-4);
+    g.measurement_sigma_xy_m = mc.getDouble("measurement_sigma_xy_m", 0.01, InRange{1e-4, 10});
+    g.measurement_sigma_xy_per_m = mc.getDouble("measurement_sigma_xy_per_m", 0.3, InRange{0, 10});
+    g.measurement_sigma_theta_rad =
+        degToRad(mc.getDouble("measurement_sigma_theta_deg", 0.6, InRange{1e-3, 90}));
+    g.measurement_sigma_theta_rad_per_m =
+        degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m", 0.8, InRange{0, 90}));
+    g.max_measurement_distance_m =
+        mc.getDouble("max_measurement_distance_m", 1.5, InRange{1e-3, 100});
+    g.robust_sigmas = mc.getDouble("robust_sigmas", 3.0, InRange{0.1, 100});
+    g.max_iterations = static_cast<int>(mc.getInt("max_iterations", 20, InRange{1, 1000}));
+    g.segment_prior_sigma_xy_m = mc.getDouble("segment_prior_sigma_xy_m", 0.5, InRange{1e-3, 100});
+    g.segment_prior_sigma_theta_rad =
+        degToRad(mc.getDouble("segment_prior_sigma_theta_deg", 10.0, InRange{1e-3, 180}));
+    mc.requireAllKeysUsed();
+  }
   p.odometry_channel = robot.channels.odometry;
+  p.landmark_update_channel = robot.channels.landmark_update;
+  p.landmark_proposal_channel = robot.channels.landmark_proposal;
   p.measurement_channel = robot.channels.visual_measurement;
   p.filtered_channel = robot.channels.visual_measurement_filtered;
   p.pose_channel = robot.channels.pose_estimate;
@@ -180,6 +215,26 @@ void BackendStage::start(bus::StageContext& ctx) {
   ctx.bus.subscribe<visual_measurement_t>(
       params_.measurement_channel, [this](const visual_measurement_t& m) { onMeasurement(m); },
       100);
+  if (params_.backend.map_correction.enabled) {
+    // Map correction needs each landmark's creation time: from the landmark
+    // DB's announcements, or, from front-ends that run without a DB, from
+    // their proposals, which then carry the landmark's id.
+    ctx.bus.subscribe<vslam::landmark_update_t>(
+        params_.landmark_update_channel,
+        [this](const vslam::landmark_update_t& m) { onLandmarkUpdate(m); }, 100);
+    ctx.bus.subscribe<vslam::landmark_update_t>(
+        params_.landmark_proposal_channel,
+        [this](const vslam::landmark_update_t& m) { onLandmarkUpdate(m); }, 100);
+  }
+}
+
+void BackendStage::onLandmarkUpdate(const vslam::landmark_update_t& msg) {
+  using U = vslam::landmark_update_t;
+  const bool announces = msg.op == U::OP_CREATED || msg.op == U::OP_LOADED ||
+                         msg.op == U::OP_SNAPSHOT ||
+                         (msg.op == U::OP_PROPOSED && msg.landmark.landmark_id >= 0);
+  if (!announces || msg.landmark.landmark_id < 0) return;
+  backend_.addLandmarkCreation(msg.landmark.landmark_id, msg.landmark.created_utime);
 }
 
 template <class... Args>
@@ -384,6 +439,17 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
              period_updates_ > 0 ? period_update_ms_ / static_cast<double>(period_updates_) : 0.0,
              "ms");
   report.add("update_ms_max", period_max_update_ms_, "ms");
+  if (const backend::PoseGraph* g = backend_.poseGraph()) {
+    report.add("graph_nodes", static_cast<double>(g->numNodes()), "count");
+    report.add("graph_landmarks", static_cast<double>(c.landmarks_in_graph), "count");
+    report.add("graph_landmark_creations_unused", static_cast<double>(c.landmark_creations_unused),
+               "count");
+    report.add("graph_measurements", static_cast<double>(c.graph_measurements), "count");
+    report.add("graph_solves", static_cast<double>(c.graph_solves), "count");
+    report.add("graph_solve_failures", static_cast<double>(c.graph_solve_failures), "count");
+    report.add("graph_odometry_breaks", static_cast<double>(c.graph_odometry_breaks), "count");
+    report.add("graph_solve_ms", c.graph_last_solve_ms, "ms");
+  }
   if (e.kidnapped) report.warn("kidnapping suspected: relocalizing from visual measurements");
   period_updates_ = 0;
   period_update_ms_ = 0;

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <filesystem>
+#include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
@@ -31,6 +32,8 @@ struct BackendStageParams {
   backend::BackendParams backend;
   std::string odometry_channel;
   std::string measurement_channel;
+  std::string landmark_update_channel;    // creation times for map correction
+  std::string landmark_proposal_channel;  // ...from front-ends without a landmark DB
   std::string filtered_channel;
   std::string pose_channel;
   std::string map_channel;
@@ -64,6 +67,7 @@ class BackendStage final : public bus::Stage {
  private:
   void onOdometry(const vslam::odometry_t& msg);
   void onMeasurement(const vslam::visual_measurement_t& msg);
+  void onLandmarkUpdate(const vslam::landmark_update_t& msg);
   void publishPose(const vslam::odometry_t& msg);
   void publishMap(Utime utime);
   void publishParticles(Utime utime);

@@ -33,7 +33,8 @@ struct SyntheticParams {
 
 struct TrueLandmark {
   int64_t id;
-  Pose2 pose;  // map frame = start frame
+  Pose2 pose;   // map frame = start frame
+  size_t tick;  // when it was created (its pose is the true pose then)
 };
 
 // Precomputed run: per odometry tick the true pose and the cumulative
@@ -91,7 +92,7 @@ class SyntheticWorld {
       odometry_.push_back(odom);
       const double arc = static_cast<double>(i) * step;
       if (arc <= perimeter && arc >= next_landmark) {
-        landmarks_.push_back({static_cast<int64_t>(1000000000 + landmarks_.size()), truth});
+        landmarks_.push_back({static_cast<int64_t>(1000000000 + landmarks_.size()), truth, t});
         next_landmark += p_.landmark_spacing_m;
       }
       if (t % measure_every == 0) {

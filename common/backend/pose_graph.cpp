@@ -1,0 +1,247 @@
+#include "backend/pose_graph.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace vslam::backend {
+namespace {
+
+// e = (a (+) z)^-1 (+) b, whitened: the error of b against a moved by z.
+struct RelativePoseCost {
+  RelativePoseCost(const Pose2& z, double sigma_xy, double sigma_theta)
+      : z_(z), inv_xy_(1.0 / sigma_xy), inv_theta_(1.0 / sigma_theta) {}
+
+  template <typename T>
+  bool operator()(const T* const a, const T* const b, T* residual) const {
+    using std::atan2;
+    using std::cos;
+    using std::sin;
+    const T ca = cos(a[2]), sa = sin(a[2]);
+    const T px = a[0] + ca * T(z_.x) - sa * T(z_.y);
+    const T py = a[1] + sa * T(z_.x) + ca * T(z_.y);
+    const T pt = a[2] + T(z_.theta);
+    const T dx = b[0] - px, dy = b[1] - py, dt = b[2] - pt;
+    const T cp = cos(pt), sp = sin(pt);
+    residual[0] = (cp * dx + sp * dy) * T(inv_xy_);
+    residual[1] = (-sp * dx + cp * dy) * T(inv_xy_);
+    residual[2] = atan2(sin(dt), cos(dt)) * T(inv_theta_);
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Pose2& z, double sigma_xy, double sigma_theta) {
+    return new ceres::AutoDiffCostFunction<RelativePoseCost, 3, 3, 3>(
+        new RelativePoseCost(z, sigma_xy, sigma_theta));
+  }
+
+ private:
+  Pose2 z_;
+  double inv_xy_, inv_theta_;
+};
+
+// A pose prior: e = x - p (theta wrapped), whitened.
+struct PosePriorCost {
+  PosePriorCost(const Pose2& p, double sigma_xy, double sigma_theta)
+      : p_(p), inv_xy_(1.0 / sigma_xy), inv_theta_(1.0 / sigma_theta) {}
+
+  template <typename T>
+  bool operator()(const T* const x, T* residual) const {
+    using std::atan2;
+    using std::cos;
+    using std::sin;
+    const T dt = x[2] - T(p_.theta);
+    residual[0] = (x[0] - T(p_.x)) * T(inv_xy_);
+    residual[1] = (x[1] - T(p_.y)) * T(inv_xy_);
+    residual[2] = atan2(sin(dt), cos(dt)) * T(inv_theta_);
+    return true;
+  }
+
+ private:
+  Pose2 p_;
+  double inv_xy_, inv_theta_;
+};
+
+void setPose(double* x, const Pose2& p) {
+  x[0] = p.x;
+  x[1] = p.y;
+  x[2] = p.theta;
+}
+
+ceres::SparseLinearAlgebraLibraryType sparseLibrary() {
+  return ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)
+             ? ceres::SUITE_SPARSE
+             : ceres::EIGEN_SPARSE;
+}
+
+}  // namespace
+
+void PoseGraphParams::validate() const {
+  auto bad = [](const std::string& field) {
+    throw std::invalid_argument("pose graph: " + field + " out of range");
+  };
+  if (!(sigma_translation > 0)) bad("sigma_translation");
+  if (!(sigma_rotation > 0)) bad("sigma_rotation");
+  if (!(measurement_sigma_xy_m > 0)) bad("measurement_sigma_xy_m");
+  if (!(measurement_sigma_xy_per_m >= 0)) bad("measurement_sigma_xy_per_m");
+  if (!(measurement_sigma_theta_rad > 0)) bad("measurement_sigma_theta_rad");
+  if (!(measurement_sigma_theta_rad_per_m >= 0)) bad("measurement_sigma_theta_rad_per_m");
+  if (!(max_measurement_distance_m > 0)) bad("max_measurement_distance_m");
+  if (!(robust_sigmas > 0)) bad("robust_sigmas");
+  if (max_iterations < 1) bad("max_iterations");
+  if (!(segment_prior_sigma_xy_m > 0)) bad("segment_prior_sigma_xy_m");
+  if (!(segment_prior_sigma_theta_rad > 0)) bad("segment_prior_sigma_theta_rad");
+}
+
+PoseGraph::PoseGraph(PoseGraphParams params) : params_((params.validate(), params)) {}
+
+int PoseGraph::segmentAt(int64_t utime) const {
+  int k = static_cast<int>(segment_start_.size()) - 1;
+  while (k > 0 && utime < segment_start_[static_cast<size_t>(k)]) --k;
+  return k;
+}
+
+void PoseGraph::breakOdometry(int64_t utime) {
+  if (utime < segment_start_.back())
+    throw std::invalid_argument("pose graph: odometry break before the previous one");
+  if (utime == segment_start_.back()) return;
+  segment_start_.push_back(utime);
+}
+
+int PoseGraph::addNode(int64_t utime, const OdometryAt& odometry, const Pose2& guess) {
+  const int segment = segmentAt(utime);
+  const auto key = std::make_pair(segment, utime);
+  const auto found = by_time_.find(key);
+  if (found != by_time_.end()) return found->second;
+
+  Node n;
+  n.utime = utime;
+  n.segment = segment;
+  n.odometry = odometry;
+  // Start where the odometry from a neighbour of the same segment puts it.
+  const auto next = by_time_.lower_bound(key);
+  Pose2 start = guess;
+  if (next != by_time_.begin() && std::prev(next)->first.first == segment) {
+    const Node& a = nodes_[static_cast<size_t>(std::prev(next)->second)];
+    start = Pose2{a.x[0], a.x[1], a.x[2]}.compose(a.odometry.pose.between(odometry.pose));
+  } else if (next != by_time_.end() && next->first.first == segment) {
+    const Node& b = nodes_[static_cast<size_t>(next->second)];
+    start = Pose2{b.x[0], b.x[1], b.x[2]}.compose(odometry.pose.between(b.odometry.pose).inverse());
+  }
+  setPose(n.x, start);
+  n.guess = start;
+  const int id = static_cast<int>(nodes_.size());
+  nodes_.push_back(n);
+  by_time_.emplace(key, id);
+  return id;
+}
+
+void PoseGraph::addLandmark(int64_t landmark_id, int node) {
+  if (node < 0 || static_cast<size_t>(node) >= nodes_.size())
+    throw std::invalid_argument("pose graph: landmark at an unknown node");
+  landmarks_.emplace(landmark_id, node);
+}
+
+bool PoseGraph::addMeasurement(int64_t landmark_id, int node, const Pose2& y) {
+  const auto it = landmarks_.find(landmark_id);
+  if (it == landmarks_.end() || node < 0 || static_cast<size_t>(node) >= nodes_.size())
+    return false;
+  if (!y.isFinite() || std::hypot(y.x, y.y) > params_.max_measurement_distance_m) return false;
+  if (it->second == node) return false;  // a measurement at the creation time says nothing
+  measurements_.push_back({it->second, node, y});
+  return true;
+}
+
+PoseGraphSolveSummary PoseGraph::solve() {
+  PoseGraphSolveSummary summary;
+  if (nodes_.size() < 2) return summary;
+  const auto t0 = std::chrono::steady_clock::now();
+  ceres::Problem::Options problem_options;
+  problem_options.enable_fast_removal = false;
+  ceres::Problem problem(problem_options);
+  const PoseGraphParams& p = params_;
+
+  // Odometry edges between time-consecutive nodes of a segment; the first
+  // node of segment 0 is the map origin, later segments' first nodes get a
+  // weak prior where they started.
+  Node* prev = nullptr;
+  for (const auto& [key, id] : by_time_) {
+    Node& n = nodes_[static_cast<size_t>(id)];
+    problem.AddParameterBlock(n.x, 3);
+    if (prev == nullptr || prev->segment != n.segment) {
+      if (n.segment == 0) {
+        problem.SetParameterBlockConstant(n.x);
+      } else {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<PosePriorCost, 3, 3>(new PosePriorCost(
+                n.guess, p.segment_prior_sigma_xy_m, p.segment_prior_sigma_theta_rad)),
+            nullptr, n.x);
+      }
+    } else {
+      const Pose2 z = prev->odometry.pose.between(n.odometry.pose);
+      const double d = std::max(0.0, n.odometry.distance_m - prev->odometry.distance_m);
+      const double r = std::max(0.0, n.odometry.rotation_rad - prev->odometry.rotation_rad);
+      // Along-track noise grows with the distance; the heading's random walk
+      // adds cross-track error growing with d^3. Small floors keep a
+      // standing robot's edge well-conditioned.
+      const double st2 = p.sigma_translation * p.sigma_translation;
+      const double sr2 = p.sigma_rotation * p.sigma_rotation;
+      const double sigma_xy = std::sqrt(st2 * d + sr2 * d * d * d / 3.0 + 1e-6);
+      const double sigma_theta = std::sqrt(sr2 * (d + r) + 1e-8);
+      problem.AddResidualBlock(RelativePoseCost::create(z, sigma_xy, sigma_theta), nullptr, prev->x,
+                               n.x);
+    }
+    prev = &n;
+  }
+  for (const Measurement& m : measurements_) {
+    Node& a = nodes_[static_cast<size_t>(m.creation_node)];
+    Node& b = nodes_[static_cast<size_t>(m.node)];
+    const double d = std::hypot(m.y.x, m.y.y);
+    const double sigma_xy = std::hypot(p.measurement_sigma_xy_m, p.measurement_sigma_xy_per_m * d);
+    const double sigma_theta =
+        std::hypot(p.measurement_sigma_theta_rad, p.measurement_sigma_theta_rad_per_m * d);
+    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta),
+                             new ceres::HuberLoss(p.robust_sigmas), a.x, b.x);
+  }
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.sparse_linear_algebra_library_type = sparseLibrary();
+  options.max_num_iterations = p.max_iterations;
+  options.num_threads = 1;  // deterministic, and the particle filter has the cores
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary s;
+  ceres::Solve(options, &problem, &s);
+  summary.solved = s.IsSolutionUsable();
+  summary.iterations = static_cast<int>(s.iterations.size());
+  summary.initial_cost = s.initial_cost;
+  summary.final_cost = s.final_cost;
+  summary.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  for (Node& n : nodes_) n.x[2] = wrapAngle(n.x[2]);
+  return summary;
+}
+
+Pose2 PoseGraph::nodePose(int node) const {
+  const Node& n = nodes_.at(static_cast<size_t>(node));
+  return {n.x[0], n.x[1], n.x[2]};
+}
+
+std::optional<Pose2> PoseGraph::landmarkPose(int64_t landmark_id) const {
+  const auto it = landmarks_.find(landmark_id);
+  if (it == landmarks_.end()) return std::nullopt;
+  return nodePose(it->second);
+}
+
+std::vector<std::pair<int64_t, Pose2>> PoseGraph::landmarkPoses() const {
+  std::vector<std::pair<int64_t, Pose2>> out;
+  out.reserve(landmarks_.size());
+  for (const auto& [id, node] : landmarks_) out.emplace_back(id, nodePose(node));
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return out;
+}
+
+}  // namespace vslam::backend

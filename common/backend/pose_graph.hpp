@@ -1,0 +1,144 @@
+#pragma once
+// Map correction for the particle filter (docs/backend.md, "Map correction"):
+// a pose graph over robot poses at measurement times and the landmarks'
+// creation poses, solved with Ceres.
+//
+// Why: the filter builds each landmark from the particles' pose when it is
+// first measured and, with a few hundred particles, keeps none of the
+// first lap's path hypotheses by the time the loop closes; the closure then
+// corrects the pose, not the map, and later laps follow the first lap's
+// drift. A pose graph keeps every constraint and, solved again as
+// measurements arrive, corrects the whole map at a loop closure.
+//
+// Nodes are robot poses in the map frame: one at the first odometry
+// reading (fixed: the map's origin), one per measurement time and one per
+// landmark creation time. A landmark's pose *is* the robot pose at its
+// creation (paper section 3), so a landmark is a node, not a separate
+// variable. Edges:
+//   odometry    between time-consecutive nodes of one odometry segment,
+//               z = odom_a^-1 (+) odom_b, covariance from the motion model
+//               over the path driven between them;
+//   measurement y between a landmark's creation node and the node at the
+//               measurement time, covariance growing with the distance from
+//               the creation pose (the landmark's 3-D error is systematic),
+//               Huber loss;
+//   prior       on the first node of a later segment (after a kidnapping or
+//               an odometry reset), weak, at the filter's estimate.
+// The residual of an edge a -> b with relative pose z is
+//   e = (x_a (+) z)^-1 (+) x_b,
+// whitened by the edge's standard deviations.
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "odometry/pose2.hpp"
+
+namespace vslam::backend {
+
+struct PoseGraphParams {
+  // Odometry noise, as the motion model: translation m/sqrt(m), rotation
+  // rad/sqrt(m driven + rad turned).
+  double sigma_translation = 0.03;
+  double sigma_rotation = 0.03;
+  // Measurement standard deviation: sigma(d) = hypot(sigma_0, k d), d the
+  // measured distance from the landmark's creation pose.
+  double measurement_sigma_xy_m = 0.01;
+  double measurement_sigma_xy_per_m = 0.3;
+  double measurement_sigma_theta_rad = 0.6 * M_PI / 180;
+  double measurement_sigma_theta_rad_per_m = 0.8 * M_PI / 180;
+  // Measurements farther than this from the creation pose are left out.
+  double max_measurement_distance_m = 1.5;
+  // Huber loss threshold of the measurement edges, in standard deviations.
+  double robust_sigmas = 3.0;
+  int max_iterations = 20;
+  // Prior of the first node of a segment other than the first.
+  double segment_prior_sigma_xy_m = 0.5;
+  double segment_prior_sigma_theta_rad = 10 * M_PI / 180;
+
+  void validate() const;  // throws std::invalid_argument naming the bad field
+};
+
+// The odometry at a node: cumulative pose, and the path driven and turned
+// since the start (for the motion model's covariance between two nodes).
+struct OdometryAt {
+  Pose2 pose;
+  double distance_m = 0;
+  double rotation_rad = 0;
+};
+
+struct PoseGraphSolveSummary {
+  bool solved = false;  // Ceres returned a usable solution (converged or hit the iteration limit)
+  int iterations = 0;
+  double initial_cost = 0, final_cost = 0;
+  double ms = 0;
+};
+
+class PoseGraph {
+ public:
+  explicit PoseGraph(PoseGraphParams params);
+
+  // The node at `utime` (an existing one if there is a node at that time).
+  // Nodes may arrive out of time order: a landmark's creation time is known
+  // only after later measurements. A new node starts where the odometry from
+  // its predecessor in its segment puts it; the first node of a segment
+  // starts at `guess` (the first node of all is fixed there: the map origin).
+  int addNode(int64_t utime, const OdometryAt& odometry, const Pose2& guess);
+  // Nodes from `utime` on start a new odometry segment: no odometry edge
+  // joins them to earlier nodes (the robot was moved, or the odometry
+  // restarted). `utime` must not be before the previous break.
+  void breakOdometry(int64_t utime);
+
+  // The landmark's pose is node `node`'s (its creation pose).
+  void addLandmark(int64_t landmark_id, int node);
+  bool hasLandmark(int64_t landmark_id) const { return landmarks_.count(landmark_id) > 0; }
+  // y: the robot at node `node` in the landmark's frame. Returns false (and
+  // adds nothing) for an unknown landmark or beyond max_measurement_distance_m.
+  bool addMeasurement(int64_t landmark_id, int node, const Pose2& y);
+
+  PoseGraphSolveSummary solve();
+
+  Pose2 nodePose(int node) const;
+  int64_t nodeTime(int node) const { return nodes_.at(static_cast<size_t>(node)).utime; }
+  const OdometryAt& nodeOdometry(int node) const {
+    return nodes_.at(static_cast<size_t>(node)).odometry;
+  }
+  std::optional<Pose2> landmarkPose(int64_t landmark_id) const;
+  // Landmark ids in increasing order, with their current poses.
+  std::vector<std::pair<int64_t, Pose2>> landmarkPoses() const;
+  size_t numNodes() const { return nodes_.size(); }
+  size_t numLandmarks() const { return landmarks_.size(); }
+  size_t numMeasurements() const { return measurements_.size(); }
+  size_t numSegments() const { return segment_start_.size(); }
+  const PoseGraphParams& params() const { return params_; }
+
+ private:
+  struct Node {
+    int64_t utime = 0;
+    int segment = 0;
+    OdometryAt odometry;
+    double x[3] = {0, 0, 0};  // estimate: x, y, theta (Ceres parameter block)
+    Pose2 guess;              // for a segment's first node: its prior
+  };
+  struct Measurement {
+    int creation_node;
+    int node;
+    Pose2 y;
+  };
+
+  PoseGraphParams params_;
+  std::vector<Node> nodes_;
+  int segmentAt(int64_t utime) const;
+
+  std::map<std::pair<int, int64_t>, int> by_time_;  // (segment, utime) -> node
+  std::vector<int64_t> segment_start_{
+      std::numeric_limits<int64_t>::min()};     // segment k covers [start_k, start_k+1)
+  std::unordered_map<int64_t, int> landmarks_;  // landmark id -> creation node
+  std::vector<Measurement> measurements_;
+};
+
+}  // namespace vslam::backend
