@@ -1,5 +1,6 @@
 #include "backend/backend.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -35,6 +36,8 @@ void MapCorrectionParams::validate() const {
     throw std::invalid_argument("backend: map_correction landmark sigmas must be > 0");
   if (!(kidnap_jump_m > 0) || !(kidnap_jump_rad > 0))
     throw std::invalid_argument("backend: map_correction kidnap jump thresholds must be > 0");
+  if (!(creation_max_age_s > 0))
+    throw std::invalid_argument("backend: map_correction.creation_max_age_s must be > 0");
   if (!(measurement_min_interval_s >= 0))
     throw std::invalid_argument("backend: map_correction.measurement_min_interval_s must be >= 0");
 }
@@ -95,14 +98,19 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
     graph_->addNode(reading.utime, {reading.pose, distance_m_, rotation_rad_},
                     filter_.estimate().mean);
   }
-  const int64_t keep_us = static_cast<int64_t>(params_.max_measurement_age_s * 1e6);
-  while (history_.size() > 2 && history_.front().reading.utime < reading.utime - keep_us) {
+  const double keep_s =
+      graph_ ? std::max(params_.max_measurement_age_s, params_.map_correction.creation_max_age_s)
+             : params_.max_measurement_age_s;
+  const auto keep_us = static_cast<int64_t>(keep_s * 1e6);
+  // Keep one reading older than the window: times inside it interpolate.
+  while (history_.size() > 2 && history_[1].reading.utime < reading.utime - keep_us) {
     history_.pop_front();
   }
   return outcome;
 }
 
-std::optional<OdometryAt> Backend::odometryAt(int64_t utime, MeasurementUse* why) const {
+std::optional<OdometryAt> Backend::odometryAt(int64_t utime, double max_age_s,
+                                              MeasurementUse* why) const {
   if (history_.empty()) {
     *why = MeasurementUse::kNoOdometry;
     return std::nullopt;
@@ -116,7 +124,8 @@ std::optional<OdometryAt> Backend::odometryAt(int64_t utime, MeasurementUse* why
     // At most a little ahead: the robot's newest known pose.
     return OdometryAt{newest.reading.pose, newest.distance_m, newest.rotation_rad};
   }
-  if (utime < history_.front().reading.utime) {
+  if (utime < history_.front().reading.utime ||
+      static_cast<double>(newest.reading.utime - utime) > max_age_s * 1e6) {
     *why = MeasurementUse::kTooOld;
     return std::nullopt;
   }
@@ -171,7 +180,8 @@ bool Backend::addLandmarkCreation(int64_t landmark_id, int64_t created_utime) {
     return false;
   }
   MeasurementUse why = MeasurementUse::kUsed;
-  const std::optional<OdometryAt> then = odometryAt(created_utime, &why);
+  const std::optional<OdometryAt> then =
+      odometryAt(created_utime, params_.map_correction.creation_max_age_s, &why);
   if (!then || graph_->numNodes() == 0) {
     ++counters_.landmark_creations_unused;
     return false;
@@ -274,7 +284,8 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   if (m.landmark_id < 0) return finish(MeasurementUse::kInvalidLandmark);
 
   MeasurementUse why = MeasurementUse::kUsed;
-  const std::optional<OdometryAt> then_odometry = odometryAt(m.utime, &why);
+  const std::optional<OdometryAt> then_odometry =
+      odometryAt(m.utime, params_.max_measurement_age_s, &why);
   if (!then_odometry) return finish(why);
   const Observation obs = alignedObservation(m, then_odometry->pose);
   if (params_.landmark_min_interval_s > 0) {

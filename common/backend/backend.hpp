@@ -54,6 +54,10 @@ struct MapCorrectionParams {
   // long drift, which the filter cannot tell from a kidnapping.
   double kidnap_jump_m = 1.5;
   double kidnap_jump_rad = 30 * M_PI / 180;
+  // Odometry kept to place a landmark's creation node: the front-end
+  // announces a landmark after its third view, which may come many seconds
+  // after the first (the creation pose) when the robot turns in place.
+  double creation_max_age_s = 60.0;
   // The filter's landmarks take the graph's poses with this covariance.
   double landmark_sigma_xy_m = 0.02;
   double landmark_sigma_theta_rad = 0.5 * M_PI / 180;
@@ -158,7 +162,10 @@ class Backend {
  private:
   // The odometry pose at `utime` from the history (linear interpolation), or
   // nothing if outside it.
-  std::optional<OdometryAt> odometryAt(int64_t utime, MeasurementUse* why) const;
+  // The odometry at `utime`, interpolated; none (and *why) if `utime` is
+  // more than max_age_s before the newest reading or after it by more than
+  // max_measurement_lead_s.
+  std::optional<OdometryAt> odometryAt(int64_t utime, double max_age_s, MeasurementUse* why) const;
   // The filter's estimate moved back by the odometry to a time whose
   // odometry is `then`.
   Pose2 estimateAt(const Pose2& then) const;

@@ -117,6 +117,7 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     m.max_outlier_fraction = mc.getDouble("max_outlier_fraction", 0.5, InRange{0, 1});
     m.measurement_min_interval_s =
         mc.getDouble("measurement_min_interval_s", 0.5, InRange{0, 3600});
+    m.creation_max_age_s = mc.getDouble("creation_max_age_s", 60.0, InRange{0.01, 3600});
     m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", 1.5, InRange{1e-3, 1000});
     m.kidnap_jump_rad = degToRad(mc.getDouble("kidnap_jump_deg", 30.0, InRange{1e-3, 180}));
     m.landmark_sigma_xy_m = mc.getDouble("landmark_sigma_xy_m", 0.02, InRange{1e-4, 10});

@@ -284,23 +284,36 @@ TEST(Backend, MapCorrectionBeatsTheFilterAloneAfterTheLoopCloses) {
   RecordProperty("median_error_without_mm", static_cast<int>(m_without * 1000));
 }
 
-TEST(Backend, MapCorrectionNeedsCreationTimesInsideTheOdometryHistory) {
+TEST(Backend, MapCorrectionPlacesLateAnnouncedCreationsButNotOnesBeyondItsHistory) {
+  // The front-end announces a landmark after its third view, which can be
+  // many seconds after the first (its creation pose) when the robot turns in
+  // place: the creation node needs odometry older than a measurement may be.
   BackendParams p;
   p.filter.motion = {0.03, 0.03};
+  p.max_measurement_age_s = 5.0;
   p.map_correction.enabled = true;
+  p.map_correction.creation_max_age_s = 20.0;
   Backend be(p);
   EXPECT_FALSE(be.addLandmarkCreation(1, 1000)) << "no odometry yet";
   be.addOdometry({1000000, 0, Pose2{}});
   be.addOdometry({2000000, 1, Pose2{0.3, 0, 0}});
-  be.addOdometry({9000000, 2, Pose2{1.0, 0, 0}});  // the history keeps 5 s
-  EXPECT_FALSE(be.addLandmarkCreation(1, 1500000)) << "older than the odometry history";
-  EXPECT_TRUE(be.addLandmarkCreation(2, 8500000));
+  be.addOdometry({9000000, 2, Pose2{1.0, 0, 0}});
+  for (int64_t k = 1; k <= 15; ++k)  // standing still for 15 s
+    be.addOdometry({9000000 + k * 1000000, 2 + k, Pose2{1.0, 0, 0}});
+  EXPECT_FALSE(be.addLandmarkCreation(1, 1500000)) << "22.5 s old: beyond creation_max_age_s";
+  EXPECT_TRUE(be.addLandmarkCreation(2, 8500000)) << "15.5 s old: beyond a measurement's age";
   EXPECT_FALSE(be.addLandmarkCreation(2, 8500000)) << "already in the graph";
   EXPECT_EQ(be.counters().landmarks_in_graph, 1);
   EXPECT_EQ(be.counters().landmark_creations_unused, 2);
   ASSERT_NE(be.poseGraph(), nullptr);
+  ASSERT_TRUE(be.poseGraph()->landmarkPose(2).has_value());
   const Pose2 node = *be.poseGraph()->landmarkPose(2);
   EXPECT_NEAR(node.x, 1.0 - 0.5 * 0.7 / 7.0, 1e-9) << "interpolated odometry at the creation time";
+  // A measurement as old as that creation is too old for the filter.
+  EXPECT_EQ(be.addMeasurement({8500000, 2, Pose2{0.1, 0, 0}, 0.5, 50, 0.0}).use,
+            MeasurementUse::kTooOld);
+  EXPECT_EQ(be.addMeasurement({23000000, 2, Pose2{1.0 - node.x, 0, 0}, 0.5, 50, 0.0}).use,
+            MeasurementUse::kUsed);
   BackendParams off;
   off.filter.motion = {0.03, 0.03};
   Backend without(off);
