@@ -1,5 +1,7 @@
 #include "frontend/features.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <opencv2/calib3d.hpp>
 #include <stdexcept>
 
@@ -9,6 +11,7 @@ void Features::clear() {
   keypoints.clear();
   descriptors.release();
   normalized.clear();
+  gain = 1.0;
 }
 
 FeatureExtractor::FeatureExtractor(const config::CameraConfig& camera, const SiftParams& sift)
@@ -32,6 +35,10 @@ FeatureExtractor::FeatureExtractor(const cv::Matx33d& camera_matrix,
   if (!valid)
     throw std::invalid_argument(
         "FeatureExtractor: distortion needs 0, 4, 5, 8, 12 or 14 coefficients");
+  if (!(params_.gain_target_level >= 0 && params_.gain_target_level <= 255) ||
+      !(params_.max_gain >= 1))
+    throw std::invalid_argument(
+        "FeatureExtractor: gain_target_level must be in [0, 255] and max_gain >= 1");
   sift_ = cv::SIFT::create(params_.nfeatures, params_.octave_layers, params_.contrast_threshold,
                            params_.edge_threshold, params_.sigma);
 }
@@ -40,7 +47,26 @@ void FeatureExtractor::extract(const cv::Mat& gray, Features* out) {
   if (gray.empty() || gray.type() != CV_8UC1)
     throw std::invalid_argument("FeatureExtractor::extract: needs a non-empty CV_8UC1 image");
   out->keypoints.clear();
-  sift_->detectAndCompute(gray, cv::noArray(), out->keypoints, out->descriptors);
+  out->gain = 1.0;
+  const cv::Mat* image = &gray;
+  if (params_.gain_target_level > 0) {
+    // The 99th-percentile level, from a histogram.
+    int counts[256] = {0};
+    for (int r = 0; r < gray.rows; ++r) {
+      const uint8_t* row = gray.ptr<uint8_t>(r);
+      for (int c = 0; c < gray.cols; ++c) ++counts[row[c]];
+    }
+    const auto total = static_cast<int64_t>(gray.total());
+    int64_t above = 0;
+    int level = 255;
+    while (level > 0 && (above + counts[level]) * 100 <= total) above += counts[level--];
+    if (level < params_.gain_target_level) {
+      out->gain = std::min(params_.max_gain, params_.gain_target_level / std::max(level, 1));
+      gray.convertTo(gained_, CV_8U, out->gain);
+      image = &gained_;
+    }
+  }
+  sift_->detectAndCompute(*image, cv::noArray(), out->keypoints, out->descriptors);
   pixels_.resize(out->keypoints.size());
   for (size_t i = 0; i < pixels_.size(); ++i) pixels_[i] = out->keypoints[i].pt;
   undistort(pixels_, &out->normalized);

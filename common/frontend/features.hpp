@@ -18,18 +18,28 @@ struct Features {
   // Undistorted normalized image coordinates (x/z, y/z in the OpenCV camera
   // frame) of each keypoint, same order.
   std::vector<Eigen::Vector2d> normalized;
+  double gain = 1.0;  // the digital gain applied to the image before SIFT (1: none)
 
   size_t size() const { return keypoints.size(); }
   void clear();
 };
 
-// OpenCV's SIFT parameters (cv::SIFT::create), with its defaults.
+// OpenCV's SIFT parameters (cv::SIFT::create), with its defaults, and the
+// digital gain applied to dim frames before it.
 struct SiftParams {
   int nfeatures = 0;  // keep the best N by contrast; 0 = all
   int octave_layers = 3;
   double contrast_threshold = 0.04;
   double edge_threshold = 10.0;
   double sigma = 1.6;
+  // SIFT's contrast threshold is absolute: a frame at a third of its
+  // exposure (dusk, a camera without auto-exposure) loses most keypoints. A
+  // frame whose 99th-percentile level is below gain_target_level is scaled
+  // up to it, by at most max_gain (a digital gain, as a camera's
+  // auto-exposure would apply); brighter frames are used unchanged.
+  // gain_target_level 0: off.
+  double gain_target_level = 0;
+  double max_gain = 4.0;
 };
 
 // Detects SIFT keypoints and descriptors and undistorts the keypoints with
@@ -63,6 +73,7 @@ class FeatureExtractor {
   std::vector<double> distortion_;
   SiftParams params_;
   cv::Ptr<cv::SIFT> sift_;
+  cv::Mat gained_;  // the gained frame, reused
   // Reused across calls.
   mutable std::vector<cv::Point2f> pixels_;
   mutable std::vector<cv::Point2d> distorted_, undistorted_;

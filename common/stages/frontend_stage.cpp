@@ -74,6 +74,8 @@ FrontendParams FrontendParams::load(const config::ConfigNode& node,
       static_cast<int>(node.getInt("max_measurements_per_frame", 4, config::InRange{1, 100}));
   p.sift.nfeatures =
       static_cast<int>(node.getInt("sift_max_features", 0, config::InRange{0, 100000}));
+  p.sift.gain_target_level = node.getDouble("dim_frame_gain_target", 0.0, config::InRange{0, 255});
+  p.sift.max_gain = node.getDouble("dim_frame_max_gain", 4.0, config::InRange{1, 64});
   p.recognition.ratio = node.getDouble("match_ratio", 0.8, config::InRange{0.1, 1.0});
   p.creation.match.ratio = p.recognition.ratio;
   p.recognition.min_matches =
@@ -415,18 +417,21 @@ void FrontendStage::process(vslam::image_t& msg) {
   const double measurement_ms = msSince(t0);
 
   const bool have_pose = odometryAt(msg.utime, &view.odometry);
+  const size_t num_features = view.features.size();  // before the view is moved away
+  const bool gained = view.features.gain > 1.0;
   t0 = monotonicUtime();
   if (have_pose) considerCreation(std::move(view), place_covered);
   const double creation_ms = msSince(t0);
 
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.frames;
-  stats_.features += static_cast<int64_t>(view.features.size());
+  stats_.features += static_cast<int64_t>(num_features);
   stats_.recognitions += static_cast<int64_t>(recognized.size());
   stats_.measurements += measured;
   stats_.measurement_failures += failures;
   stats_.no_odometry += have_pose ? 0 : 1;
   stats_.prefetched += have_features ? 1 : 0;
+  stats_.gained += gained ? 1 : 0;
   stats_.sift_ms += sift_ms;
   stats_.recognition_ms += recognition_ms;
   stats_.measurement_ms += measurement_ms;
@@ -583,6 +588,7 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   }
   report.add("frames_dropped", static_cast<double>(worker_ ? worker_->dropped() : 0), "count");
   report.add("frames_prefetched", static_cast<double>(stats_.prefetched), "count");
+  report.add("frames_gained", static_cast<double>(stats_.gained), "count");
   if (d.no_odometry > 0) report.warn("frames without odometry: no landmarks can be created");
 }
 

@@ -95,6 +95,7 @@ class FrontendStage final : public bus::Stage {
     int64_t acknowledged = 0, rejected = 0, resent = 0, sync_requests = 0, replica_added = 0,
             replica_removed = 0;
     int64_t prefetched = 0;  // frames whose features prefetch() extracted (replay)
+    int64_t gained = 0;      // dim frames scaled up before SIFT
   };
 
   void onImage(const vslam::image_t& msg);

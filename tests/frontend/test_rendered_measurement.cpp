@@ -49,14 +49,22 @@ class RenderedMeasurement : public ::testing::Test {
 
   const config::CameraConfig& camera(const std::string& name) const { return robot_.camera(name); }
 
-  Features view(const config::CameraConfig& cam, const Pose2& robot) {
+  cv::Mat render(const config::CameraConfig& cam, const Pose2& robot, double exposure = 1.0,
+                 double noise_sigma = 0.0) {
     world::Renderer renderer(world_, world::CameraModel{cam.width, cam.height, cam.fx, cam.fy,
                                                         cam.cx, cam.cy, cam.distortion});
+    world::RenderEffects effects;
+    effects.exposure = exposure;
+    effects.noise_sigma = noise_sigma;
     cv::Mat image;
-    renderer.render(isometryOf(robot) * cam.robot_T_camera, {}, {}, false, image);
+    renderer.render(isometryOf(robot) * cam.robot_T_camera, {}, effects, false, image);
+    return image;
+  }
+
+  Features view(const config::CameraConfig& cam, const Pose2& robot) {
     FeatureExtractor extractor(cam);
     Features f;
-    extractor.extract(image, &f);
+    extractor.extract(render(cam, robot), &f);
     return f;
   }
 
@@ -90,9 +98,11 @@ class RenderedMeasurement : public ::testing::Test {
   // Renders `cam` with the robot at creation * offset, recognizes the
   // landmark and checks the measurement against the offset.
   void expectMeasured(const config::CameraConfig& cam, const Pose2& creation, const Pose2& offset) {
+    expectMeasured(cam, offset, view(cam, creation.compose(offset)));
+  }
+  void expectMeasured(const config::CameraConfig& cam, const Pose2& offset, const Features& f) {
     SCOPED_TRACE(cam.name + " camera at offset (" + std::to_string(offset.x) + ", " +
                  std::to_string(offset.y) + ", " + std::to_string(offset.theta / kDeg) + " deg)");
-    const Features f = view(cam, creation.compose(offset));
     const std::vector<Recognition> seen = index_.recognize(f);
     ASSERT_EQ(seen.size(), 1u) << "the landmark is not recognized";
     const PoseMeasurementResult r =
@@ -152,6 +162,41 @@ TEST_F(RenderedMeasurement, BackwardCameraMeasuresAForwardLandmark) {
   for (const Pose2& offset : {Pose2{0.9, 0.0, M_PI}, Pose2{1.0, 0.1, M_PI - 8 * kDeg}}) {
     expectMeasured(camera("backward"), creation, offset);
   }
+}
+
+// At dusk (a third of the exposure, no auto-exposure) SIFT's absolute
+// contrast threshold loses most keypoints; the front-end's digital gain
+// brings them back, and the landmark built in normal light is measured as
+// well as in normal light. A normal frame is left as it is.
+TEST_F(RenderedMeasurement, DimFramesAreMeasuredAfterTheDigitalGain) {
+  const auto& cam = camera("forward");
+  const Pose2 creation = start();
+  createLandmark(cam, creation);
+  const Pose2 offset{0.5, 0.0, 0.0};
+  // The scenarios' exposure at dusk and their sensor noise.
+  const cv::Mat normal = render(cam, creation.compose(offset), 1.0, 1.5);
+  const cv::Mat dim = render(cam, creation.compose(offset), 0.35, 1.5);
+
+  SiftParams gained;
+  gained.gain_target_level = 128;
+  FeatureExtractor plain_extractor(cam), gain_extractor(cam, gained);
+  Features f_normal, f_normal_gained, f_dim, f_dim_gained;
+  plain_extractor.extract(normal, &f_normal);
+  gain_extractor.extract(normal, &f_normal_gained);
+  EXPECT_EQ(f_normal_gained.gain, 1.0) << "a normal frame is used as it is";
+  EXPECT_EQ(f_normal_gained.size(), f_normal.size());
+  plain_extractor.extract(dim, &f_dim);
+  gain_extractor.extract(dim, &f_dim_gained);
+  std::printf("keypoints: normal %zu, dim %zu, dim with gain %.2f: %zu\n", f_normal.size(),
+              f_dim.size(), f_dim_gained.gain, f_dim_gained.size());
+  EXPECT_GT(f_dim_gained.gain, 1.5);
+  EXPECT_LT(f_dim.size(), f_normal.size() / 2) << "without the gain most keypoints are lost";
+  EXPECT_GT(f_dim_gained.size(), 2 * f_dim.size());
+  expectMeasured(cam, offset, f_dim_gained);
+
+  SiftParams bad;
+  bad.max_gain = 0.5;
+  EXPECT_THROW(FeatureExtractor(cam, bad), std::invalid_argument);
 }
 
 }  // namespace
