@@ -178,7 +178,7 @@ TEST_F(RenderedMeasurement, DimFramesAreMeasuredAfterTheDigitalGain) {
   const cv::Mat dim = render(cam, creation.compose(offset), 0.35, 1.5);
 
   SiftParams gained;
-  gained.gain_target_level = 128;
+  gained.gain_target_level = 100;  // as in config/vslam.yaml
   FeatureExtractor plain_extractor(cam), gain_extractor(cam, gained);
   Features f_normal, f_normal_gained, f_dim, f_dim_gained;
   plain_extractor.extract(normal, &f_normal);
