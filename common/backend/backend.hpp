@@ -160,11 +160,9 @@ class Backend {
   const PoseGraph* poseGraph() const { return graph_ ? &*graph_ : nullptr; }
 
  private:
-  // The odometry pose at `utime` from the history (linear interpolation), or
-  // nothing if outside it.
-  // The odometry at `utime`, interpolated; none (and *why) if `utime` is
-  // more than max_age_s before the newest reading or after it by more than
-  // max_measurement_lead_s.
+  // The odometry at `utime`, interpolated in the history; none (and *why)
+  // if `utime` is more than max_age_s before the newest reading or after it
+  // by more than max_measurement_lead_s.
   std::optional<OdometryAt> odometryAt(int64_t utime, double max_age_s, MeasurementUse* why) const;
   // The filter's estimate moved back by the odometry to a time whose
   // odometry is `then`.
