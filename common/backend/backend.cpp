@@ -250,6 +250,7 @@ Observation Backend::alignedObservation(const MeasurementInput& m, const Pose2& 
   const Pose2& y = m.relative;
   Observation obs;
   obs.landmark_id = m.landmark_id;
+  obs.utime = m.utime;
   obs.relative = y.compose(d);
   const double c = std::cos(y.theta), s = std::sin(y.theta);
   Eigen::Matrix3d jy;              // d(y (+) D)/dy

@@ -69,8 +69,13 @@ void FilterParams::validate() const {
   require(kidnap.detect_agreement >= 0 && kidnap.detect_agreement <= 1 &&
               kidnap.recover_agreement >= 0 && kidnap.recover_agreement <= 1,
           "kidnap agreements must be in [0, 1]");
-  require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1 && kidnap.detect_landmarks >= 1,
+  require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1 && kidnap.detect_landmarks >= 1 &&
+              kidnap.recover_landmarks >= 1,
           "kidnap counts must be >= 1");
+  require(kidnap.detect_min_span_s >= 0 && kidnap.suspect_after >= 0,
+          "kidnap detect_min_span_s and suspect_after must be >= 0");
+  require(kidnap.cluster_xy_m > 0 && kidnap.cluster_theta_rad > 0,
+          "kidnap cluster tolerances must be > 0");
   require(outlier.probability >= 0 && outlier.probability < 1,
           "outlier probability must be in [0, 1)");
   require(outlier.area_m2 > 0 && outlier.gate_mahalanobis_sq > 0,
@@ -126,6 +131,8 @@ void ParticleFilter::predict(const Pose2& step) {
   const uint64_t seed = params_.seed;
   const MotionNoise noise = params_.motion;
   since_update_.apply(step, noise.stepCovariance(step));
+  odometry_ = odometry_.compose(step);
+  if (kidnapped_) held_ = held_.compose(step);
   forEachParticle([&](size_t i) {
     RandomStream rng(seed, k, i, kMotion);
     const double nt = rng.normal();
@@ -164,6 +171,18 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     return initialize(slot, obs, r);
   }
   const uint32_t slot = found->second;
+  const KidnapParams& kp = params_.kidnap;
+  const bool suspect = isSuspect(slot);
+  if (kidnapped_ && suspect) {
+    // A known look-alike neither proposes nor confirms a relocalization.
+    UpdateReport rep;
+    rep.kind = UpdateKind::kKidnapped;
+    rep.suspect = true;
+    rep.agreement = 0;
+    rep.smoothed_agreement = smoothed_agreement_;
+    rep.ess = effectiveSampleSize();
+    return rep;
+  }
   const uint64_t k = step_++;
   const uint64_t seed = params_.seed;
   const size_t m = particles_.size();
@@ -202,37 +221,56 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   // (2) Mode: kidnap detection and recovery, the dynamic ratio.
   UpdateReport rep;
   rep.agreement = agreement;
-  const KidnapParams& kp = params_.kidnap;
+  rep.suspect = suspect;
   const MixtureParams& mix = params_.mixture;
   bool all_dual = false;
   if (kidnapped_) {
-    recover_count_ = agreement >= kp.recover_agreement ? recover_count_ + 1 : 0;
-    if (recover_count_ >= kp.recover_count) {
+    if (agreement >= kp.recover_agreement) {
+      ++recover_count_;
+      if (std::find(recover_landmarks_.begin(), recover_landmarks_.end(), obs.landmark_id) ==
+          recover_landmarks_.end())
+        recover_landmarks_.push_back(obs.landmark_id);
+    } else {
+      recover_count_ = 0;
+      recover_landmarks_.clear();
+    }
+    if (recover_count_ >= kp.recover_count &&
+        static_cast<int>(recover_landmarks_.size()) >= kp.recover_landmarks) {
       kidnapped_ = false;
       rep.recovered = true;
       smoothed_agreement_ = agreement;
+      recover_count_ = 0;
+      recover_landmarks_.clear();
     } else {
       all_dual = true;
     }
   } else {
-    // A run of inconsistent measurements in a row; it counts as a
-    // kidnapping only when it spans several distinct landmarks.
+    // A run of inconsistent measurements in a row (KidnapParams). A known
+    // look-alike's inconsistent measurement neither extends nor ends it.
     if (agreement < kp.detect_agreement) {
-      ++low_count_;
-      if (std::find(low_landmarks_.begin(), low_landmarks_.end(), obs.landmark_id) ==
-          low_landmarks_.end())
-        low_landmarks_.push_back(obs.landmark_id);
-    } else {
-      low_count_ = 0;
-      low_landmarks_.clear();
+      if (!suspect) {
+        const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
+        low_run_.push_back(
+            {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(y), odometry_});
+      }
+    } else if (!low_run_.empty()) {
+      // Contradicted: every landmark of the run was seen somewhere it is not.
+      std::vector<uint32_t> seen;
+      for (const Inconsistent& l : low_run_) {
+        if (std::find(seen.begin(), seen.end(), l.slot) != seen.end()) continue;
+        seen.push_back(l.slot);
+        if (contradicted_.size() <= l.slot) contradicted_.resize(ids_.size(), 0);
+        ++contradicted_[l.slot];
+      }
+      low_run_.clear();
     }
-    if (low_count_ >= kp.detect_count &&
-        static_cast<int>(low_landmarks_.size()) >= kp.detect_landmarks) {
+    if (static_cast<int>(low_run_.size()) >= kp.detect_count && kidnapEvidence(kp)) {
+      held_ = estimate().mean;  // published until the relocalization is confirmed
       kidnapped_ = true;
       rep.kidnap_detected = true;
-      low_count_ = 0;
-      low_landmarks_.clear();
+      low_run_.clear();
       recover_count_ = 0;
+      recover_landmarks_.clear();
       all_dual = true;
     }
   }
@@ -242,8 +280,11 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const double ratio = all_dual ? 1.0
                                 : mix.dual_ratio_min + (mix.dual_ratio_max - mix.dual_ratio_min) *
                                                            (1.0 - smoothed_agreement_);
-  const auto n_dual = static_cast<uint64_t>(
-      std::min<double>(static_cast<double>(m), std::round(ratio * static_cast<double>(m))));
+  // A known look-alike proposes no dual particles: they would land on its twin.
+  const auto n_dual =
+      suspect ? uint64_t{0}
+              : static_cast<uint64_t>(std::min<double>(static_cast<double>(m),
+                                                       std::round(ratio * static_cast<double>(m))));
   // Which particles are dual: n_dual of them, evenly spread over the
   // (ancestor-ordered) set from a random offset.
   RandomStream select_rng(seed, k, 0, kSelect);
@@ -333,6 +374,48 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   return rep;
 }
 
+bool ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
+  if (kp.detect_min_span_s > 0 &&
+      static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
+          kp.detect_min_span_s * 1e6)
+    return false;
+  // The implied poses carried to the present by the odometry since.
+  std::vector<Pose2> now(low_run_.size());
+  for (size_t i = 0; i < low_run_.size(); ++i)
+    now[i] = low_run_[i].implied.compose(low_run_[i].odometry.between(odometry_));
+  for (size_t i = 0; i < now.size(); ++i) {
+    std::vector<int64_t> agreeing;
+    for (size_t j = 0; j < now.size(); ++j) {
+      if (std::hypot(now[j].x - now[i].x, now[j].y - now[i].y) > kp.cluster_xy_m ||
+          std::abs(wrapAngle(now[j].theta - now[i].theta)) > kp.cluster_theta_rad)
+        continue;
+      if (std::find(agreeing.begin(), agreeing.end(), low_run_[j].landmark_id) == agreeing.end())
+        agreeing.push_back(low_run_[j].landmark_id);
+    }
+    if (static_cast<int>(agreeing.size()) >= kp.detect_landmarks) return true;
+  }
+  return false;
+}
+
+bool ParticleFilter::isSuspect(uint32_t slot) const {
+  const int after = params_.kidnap.suspect_after;
+  return after > 0 && slot < contradicted_.size() && contradicted_[slot] >= after;
+}
+
+size_t ParticleFilter::numSuspectLandmarks() const {
+  size_t n = 0;
+  for (uint32_t slot = 0; slot < contradicted_.size(); ++slot) n += isSuspect(slot);
+  return n;
+}
+
+void ParticleFilter::startKidnapped() {
+  held_ = estimate().mean;
+  kidnapped_ = true;
+  low_run_.clear();
+  recover_count_ = 0;
+  recover_landmarks_.clear();
+}
+
 void ParticleFilter::normalize() {
   double mx = -std::numeric_limits<double>::infinity();
   for (const Particle& p : particles_) mx = std::max(mx, p.log_weight);
@@ -396,6 +479,8 @@ void ParticleFilter::resample() {
 void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
   slots_.clear();
   ids_.clear();
+  contradicted_.clear();
+  low_run_.clear();
   LandmarkMap map;
   for (const KnownLandmark& l : landmarks) {
     if (l.estimate.num_observations < 1 || !l.estimate.mean.allFinite() ||
@@ -456,11 +541,11 @@ PoseEstimate ParticleFilter::estimate() const {
     ss += w[i] * std::sin(p.theta);
   }
   PoseEstimate e;
-  e.mean = {sx, sy, std::atan2(ss, sc)};
+  e.mean = kidnapped_ ? held_ : Pose2{sx, sy, std::atan2(ss, sc)};
   double s2 = 0;
   for (size_t i = 0; i < w.size(); ++i) {
     const Pose2& p = particles_[i].pose;
-    const Eigen::Vector3d d(p.x - sx, p.y - sy, wrapAngle(p.theta - e.mean.theta));
+    const Eigen::Vector3d d(p.x - e.mean.x, p.y - e.mean.y, wrapAngle(p.theta - e.mean.theta));
     e.covariance += w[i] * d * d.transpose();
     s2 += w[i] * w[i];
   }

@@ -83,6 +83,25 @@ struct KidnapParams {
   int detect_landmarks = 2;
   double recover_agreement = 0.1;
   int recover_count = 2;
+  // A repeated pattern (wallpaper, tiles, identical doors) gives several
+  // distinct landmarks that are recognised at a wrong place, so distinct
+  // landmarks alone are not evidence of a kidnapping. The inconsistent run
+  // must also (a) last detect_min_span_s (Observation::utime; an alias is
+  // usually interrupted by a consistent measurement of something else), and
+  // (b) contain detect_landmarks distinct landmarks that agree on where the
+  // robot is (implied poses, carried to the present by the odometry, within
+  // cluster_xy_m / cluster_theta_rad of each other).
+  double detect_min_span_s = 0.0;
+  double cluster_xy_m = 0.5;
+  double cluster_theta_rad = 20 * M_PI / 180;
+  // Landmarks whose inconsistent measurements were contradicted (the run
+  // they were in ended with a consistent measurement) this many times are
+  // known look-alikes: they give no kidnap evidence and no dual particles.
+  // 0: never.
+  int suspect_after = 0;
+  // The recovery needs consistent measurements of this many distinct
+  // landmarks in its run: one look-alike cannot confirm a relocalization.
+  int recover_landmarks = 1;
 };
 
 struct FilterParams {
@@ -121,6 +140,7 @@ struct Observation {
   int64_t landmark_id = 0;
   Pose2 relative;                                        // y: robot now in the landmark's frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // zero: FilterParams' Sigma_vis
+  int64_t utime = 0;  // capture time, microseconds (kidnap persistence; 0: unknown)
 };
 
 enum class UpdateKind {
@@ -141,10 +161,16 @@ struct UpdateReport {
   int num_outliers = 0;          // particles for which the measurement failed the gate
   bool kidnap_detected = false;  // this measurement started a kidnapped period
   bool recovered = false;        // this measurement ended one
+  bool suspect = false;          // the landmark is a known look-alike (KidnapParams::suspect_after)
 };
 
 struct PoseEstimate {
-  Pose2 mean;  // weighted mean (circular mean of theta)
+  // Weighted mean (circular mean of theta); while kidnapped, the pose held
+  // from before the kidnapping, carried by the odometry, until the
+  // relocalization is confirmed (the all-dual particles jump from one
+  // measured landmark to the next), with the particles' spread about it as
+  // covariance.
+  Pose2 mean;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   double ess = 0;
   bool kidnapped = false;
@@ -194,6 +220,11 @@ class ParticleFilter {
   PoseEstimate estimate() const;
   double effectiveSampleSize() const;
   bool kidnapped() const { return kidnapped_; }
+  // Global relocalization (e.g. a saved map and an unknown start pose):
+  // all-dual until the measurements confirm a pose.
+  void startKidnapped();
+  // Landmarks currently marked as look-alikes (KidnapParams::suspect_after).
+  size_t numSuspectLandmarks() const;
   double lastDualRatio() const { return last_dual_ratio_; }
   const std::vector<Particle>& particles() const { return particles_; }
   // For tests and tools that set up a particle set by hand.
@@ -219,10 +250,25 @@ class ParticleFilter {
   std::unordered_map<int64_t, uint32_t> slots_;
   std::vector<int64_t> ids_;
   uint64_t step_ = 0;  // counts predict/update/resample calls: the random streams' step
+  // One inconsistent measurement of the current run: the robot pose it
+  // implies (best particle's landmark) and the odometry then.
+  struct Inconsistent {
+    int64_t landmark_id;
+    uint32_t slot;
+    int64_t utime;
+    Pose2 implied;
+    Pose2 odometry;
+  };
+  bool kidnapEvidence(const KidnapParams& kp) const;
+  bool isSuspect(uint32_t slot) const;
+
   bool kidnapped_ = false;
-  int low_count_ = 0;
-  std::vector<int64_t> low_landmarks_;  // distinct landmarks in the current inconsistent run
+  std::vector<Inconsistent> low_run_;  // the current run of inconsistent measurements
+  std::vector<int> contradicted_;  // per slot: inconsistent runs it was in that ended consistent
   int recover_count_ = 0;
+  std::vector<int64_t> recover_landmarks_;  // distinct landmarks in the recovering run
+  Pose2 odometry_;                          // the predict steps composed: the run's own frame
+  Pose2 held_;                              // published while kidnapped
   double smoothed_agreement_ = 1;
   double last_dual_ratio_ = 0;
   PoseWithCovariance since_update_;  // odometry since the previous update, anchor frame

@@ -67,6 +67,10 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   p.map_prior_sigma_xy_m = node.getDouble("map_prior_sigma_xy_m", 0.05, InRange{1e-4, 10.0});
   p.map_prior_sigma_theta_rad =
       degToRad(node.getDouble("map_prior_sigma_theta_deg", 1.0, InRange{1e-3, 90.0}));
+  const std::string start = node.getString("map_prior_start", "origin");
+  if (start != "origin" && start != "unknown")
+    throw node.error("map_prior_start", "expected origin or unknown, not '" + start + "'");
+  p.map_prior_unknown_start = start == "unknown";
   p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
   p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
 
@@ -107,6 +111,15 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     k.recover_agreement = kd.getDouble("recover_agreement", 0.1, InRange{0, 1});
     k.recover_count = static_cast<int>(kd.getInt("recover_count", 2, InRange{1, 1000}));
     k.detect_landmarks = static_cast<int>(kd.getInt("detect_landmarks", 2, InRange{1, 1000}));
+    // The defaults are the struct's (backend/particle_filter.hpp).
+    k.detect_min_span_s = kd.getDouble("detect_min_span_s", k.detect_min_span_s, InRange{0, 600});
+    k.cluster_xy_m = kd.getDouble("cluster_xy_m", k.cluster_xy_m, InRange{1e-3, 100});
+    k.cluster_theta_rad =
+        degToRad(kd.getDouble("cluster_deg", radToDeg(k.cluster_theta_rad), InRange{1e-3, 180}));
+    k.suspect_after =
+        static_cast<int>(kd.getInt("suspect_after", k.suspect_after, InRange{0, 1000}));
+    k.recover_landmarks =
+        static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
     kd.requireAllKeysUsed();
   }
   if (node.has("map_correction")) {
@@ -190,6 +203,7 @@ void BackendStage::loadMapPrior() {
   }
   backend_.filter().loadMap(known);
   prior_landmarks_ = known.size();
+  if (params_.map_prior_unknown_start && !known.empty()) backend_.filter().startKidnapped();
   params_.database_id = store.databaseId();
   if (known.empty()) {
     log::warn("map prior ", params_.map_prior_file.string(),

@@ -49,6 +49,10 @@ struct BackendStageParams {
   std::filesystem::path map_prior_file;
   double map_prior_sigma_xy_m = 0.05;
   double map_prior_sigma_theta_rad = 0.0175;
+  // Where the robot starts in the map prior: at its origin (the pose of the
+  // run that built it), or unknown, relocalized globally from the first
+  // measurements (all dual particles until confirmed).
+  bool map_prior_unknown_start = false;
 
   static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
