@@ -14,6 +14,12 @@ void OdometrySimulator::addStep(const Pose2& true_step, double t) {
       measured.theta *= slip.rotation_factor;
     }
   }
+  // Unequal wheels turn the reported heading in proportion to the distance
+  // the wheels roll (so not during a slip that stops them), forwards or back.
+  measured.theta +=
+      params_.heading_bias * std::copysign(std::hypot(measured.x, measured.y), measured.x);
+  measured.x *= 1.0 + params_.scale_bias;
+  measured.y *= 1.0 + params_.scale_bias;
   const double n_translation = n01_(rng_);
   const double n_rotation = n01_(rng_);
   measured = noise_.perturb(measured, n_translation, n_rotation);

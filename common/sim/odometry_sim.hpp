@@ -1,6 +1,7 @@
 #pragma once
 // Wheel odometry of the simulated robot: the true motion of each step,
-// scaled during scripted slip events, plus noise drawn from the same model the
+// scaled during scripted slip events, distorted by the wheels' scale and
+// heading biases, plus noise drawn from the same model the
 // estimators assume (MotionNoise: variances proportional to the step, so the
 // error statistics do not depend on the odometry rate), accumulated into the
 // cumulative dead-reckoned pose that vslam.odometry_t carries.

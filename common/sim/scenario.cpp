@@ -120,6 +120,8 @@ Scenario Scenario::load(const ConfigNode& node) {
   s.odometry.rate_hz = o.getDouble("rate_hz", 50.0, InRange{1, 1000});
   s.odometry.sigma_translation = o.getDouble("sigma_translation", config::nonNegative());
   s.odometry.sigma_rotation = o.getDouble("sigma_rotation", config::nonNegative());
+  s.odometry.scale_bias = o.getDouble("scale_bias", 0.0, InRange{-0.5, 0.5});
+  s.odometry.heading_bias = o.getDouble("heading_bias", 0.0, InRange{-1, 1});
   if (o.has("slips")) {
     for (const ConfigNode& e : o.sequence("slips")) {
       SlipEvent slip;

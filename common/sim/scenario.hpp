@@ -57,6 +57,12 @@ struct OdometryParams {
   double rate_hz = 50;
   double sigma_translation = 0.02;  // sigma_T, m / sqrt(m) (common/odometry/motion_model.hpp)
   double sigma_rotation = 0.02;     // sigma_R, rad / sqrt(m or rad)
+  // Systematic errors of real wheels, applied before the noise: odometry
+  // reports (1 + scale_bias) x the true translation (a wrong wheel
+  // diameter), and heading_bias rad of extra rotation per metre driven
+  // (unequal wheel diameters make the reported path curve).
+  double scale_bias = 0;
+  double heading_bias = 0;  // rad / m
   std::vector<SlipEvent> slips;
 };
 

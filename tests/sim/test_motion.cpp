@@ -113,6 +113,55 @@ TEST(OdometrySimulator, SlipEventsScaleWhatTheWheelsReport) {
   EXPECT_NEAR(odo.distance(), 0.75, 1e-12);
 }
 
+TEST(OdometrySimulator, ScaleAndHeadingBiasesOfUnequalWheels) {
+  OdometryParams params;
+  params.sigma_translation = 0;
+  params.sigma_rotation = 0;
+  params.scale_bias = 0.02;
+  OdometrySimulator scaled(params, 1);
+  for (int i = 0; i < 1000; ++i) scaled.addStep({0.01, 0, 0}, 0.02 * i);  // 10 m straight
+  EXPECT_NEAR(scaled.pose().x, 10.2, 1e-9);
+  EXPECT_NEAR(scaled.distance(), 10.2, 1e-9);
+  EXPECT_NEAR(scaled.pose().theta, 0.0, 1e-12);
+
+  params.scale_bias = 0;
+  params.heading_bias = 0.01;  // rad per metre
+  OdometrySimulator curving(params, 1);
+  for (int i = 0; i < 1000; ++i) curving.addStep({0.01, 0, 0}, 0.02 * i);
+  EXPECT_NEAR(curving.pose().theta, 0.1, 1e-9);
+  EXPECT_NEAR(curving.distance(), 10.0, 1e-9);
+  EXPECT_GT(curving.pose().y, 0.4);  // the reported path bends left: ~0.5 m off after 10 m
+  // Turning on the spot rolls no distance, so no heading bias.
+  OdometrySimulator turning(params, 1);
+  for (int i = 0; i < 50; ++i) turning.addStep({0, 0, M_PI / 100}, 0.02 * i);
+  EXPECT_NEAR(turning.pose().theta, M_PI / 2, 1e-12);
+}
+
+TEST(Scenario, OdometryBiasesAreReadAndValidated) {
+  const fs::path dir = fs::temp_directory_path() / "vslam_test_scenario_bias";
+  fs::create_directories(dir);
+  std::ofstream(dir / "world.yaml") << "x: 1\n";
+  const std::string base =
+      "name: t\nworld: world.yaml\nmotion:\n  mode: actions\n  start: [0, 0, 0]\n"
+      "  actions: F2 L\nodometry:\n  sigma_translation: 0.01\n  sigma_rotation: 0.01\n";
+  std::ofstream(dir / "s.yaml") << base;
+  const Scenario plain = Scenario::loadByName((dir / "s.yaml").string(), dir);
+  EXPECT_EQ(plain.odometry.scale_bias, 0.0);
+  EXPECT_EQ(plain.odometry.heading_bias, 0.0);
+  std::ofstream(dir / "s.yaml") << base + "  scale_bias: -0.015\n  heading_bias: 0.004\n";
+  const Scenario biased = Scenario::loadByName((dir / "s.yaml").string(), dir);
+  EXPECT_DOUBLE_EQ(biased.odometry.scale_bias, -0.015);
+  EXPECT_DOUBLE_EQ(biased.odometry.heading_bias, 0.004);
+  std::ofstream(dir / "s.yaml") << base + "  scale_bias: 0.9\n";
+  try {
+    Scenario::loadByName((dir / "s.yaml").string(), dir);
+    ADD_FAILURE() << "scale_bias 0.9 accepted";
+  } catch (const config::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("odometry.scale_bias"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 TEST(WaypointDriver, DrivesTheLapsAndClosesTheLoop) {
   MotionParams p;
   p.mode = MotionMode::kWaypoints;
@@ -124,7 +173,15 @@ TEST(WaypointDriver, DrivesTheLapsAndClosesTheLoop) {
   Pose2 pose = p.start, step;
   double distance = 0, max_off_route = 0;
   int steps = 0;
+  size_t target = driver.target();
   while (driver.advance(pose, 0.02, &step) && steps < 100000) {
+    // The target moves on one waypoint at a time, once the robot is there.
+    if (driver.target() != target) {
+      EXPECT_EQ(driver.target(), target + 1);
+      const Eigen::Vector2d reached = p.waypoints[target % p.waypoints.size()];
+      EXPECT_LT((reached - Eigen::Vector2d(pose.x, pose.y)).norm(), 0.01);
+      target = driver.target();
+    }
     pose = pose.compose(step);
     distance += std::hypot(step.x, step.y);
     // Never far from the rectangle's edges.
@@ -137,6 +194,7 @@ TEST(WaypointDriver, DrivesTheLapsAndClosesTheLoop) {
   EXPECT_LT(std::hypot(pose.x, pose.y), 0.05);  // back at the start
   EXPECT_LT(max_off_route, 0.05);
   EXPECT_DOUBLE_EQ(driver.progress(), 1.0);
+  EXPECT_EQ(driver.target(), 3u * 4u + 1u);
 }
 
 TEST(ActionDriver, ExecutesActionsWithTheStatedError) {
