@@ -37,6 +37,10 @@ class WaypointDriver final : public MotionDriver {
   explicit WaypointDriver(const MotionParams& params);
   bool advance(const Pose2& current, double dt, Pose2* step) override;
   double progress() const override;
+  // Index of the waypoint it drives to in the driven route (the waypoints
+  // lap after lap, then the first again); the route's size once done. Tells
+  // a scenario generator when the robot has finished a leg.
+  size_t target() const { return next_; }
 
  private:
   MotionParams params_;
