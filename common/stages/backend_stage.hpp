@@ -65,6 +65,7 @@ class BackendStage final : public bus::Stage {
   std::vector<std::string> outputChannels() const override;
 
   const backend::Backend& backend() const { return backend_; }
+  backend::Backend& backend() { return backend_; }  // for tests and tools that drive it directly
   // Landmarks loaded from map_prior_file (0 without one).
   size_t priorLandmarks() const { return prior_landmarks_; }
 

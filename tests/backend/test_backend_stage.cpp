@@ -354,41 +354,49 @@ processes:
   fs::remove_all(dir);
 }
 
+namespace {
+
+// An earlier run's map file: landmarks 1..count, those in `poses` with a
+// back-end pose (pose source "map"), the others known only by their
+// creation odometry pose (another frame).
+void writePriorMap(const fs::path& map, const std::map<int64_t, Pose2>& poses, int64_t count) {
+  landmark_db::StoreOptions options;
+  options.new_database_id = "lmdb-prior-test";
+  landmark_db::LandmarkStore store(map, options);
+  landmark_db::LandmarkStructure structure;
+  structure.num_points = 1;
+  structure.points = {0.f, 0.f, 2.f};
+  structure.keypoints = {0.f, 0.f};
+  structure.scales = {1.f};
+  structure.orientations = {0.f};
+  structure.descriptors.assign(128, 7);
+  int64_t revision = 0;
+  for (int64_t id = 1; id <= count; ++id) {
+    landmark_db::LandmarkInfo info;
+    info.id = id;
+    info.camera = "forward";
+    info.proposal_id = id;
+    info.fingerprint = static_cast<uint64_t>(id);
+    info.num_points = 1;
+    info.stats.num_accepted = 5;
+    if (poses.count(id)) {
+      info.pose_source = landmark_db::PoseSource::kMap;
+      info.map_pose = poses.at(id);
+    }
+    store.insert(info, structure, ++revision);
+  }
+}
+
+}  // namespace
+
 TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
   // Localization in a known map: an earlier run's map file holds landmarks
   // with a back-end pose (pose source "map") and one known only by its
   // creation odometry pose (another frame). The stage starts every particle
   // with the former, at the configured standard deviation.
   const fs::path dir = vslam::test::scratchDir("backend_map_prior");
-  const fs::path map = dir / "landmarks.vslam-map";
   const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {-3.0, 0.25, -2.0}}};
-  {
-    landmark_db::StoreOptions options;
-    options.new_database_id = "lmdb-prior-test";
-    landmark_db::LandmarkStore store(map, options);
-    landmark_db::LandmarkStructure structure;
-    structure.num_points = 1;
-    structure.points = {0.f, 0.f, 2.f};
-    structure.keypoints = {0.f, 0.f};
-    structure.scales = {1.f};
-    structure.orientations = {0.f};
-    structure.descriptors.assign(128, 7);
-    int64_t revision = 0;
-    for (int64_t id = 1; id <= 3; ++id) {
-      landmark_db::LandmarkInfo info;
-      info.id = id;
-      info.camera = "forward";
-      info.proposal_id = id;
-      info.fingerprint = static_cast<uint64_t>(id);
-      info.num_points = 1;
-      info.stats.num_accepted = 5;
-      if (poses.count(id)) {
-        info.pose_source = landmark_db::PoseSource::kMap;
-        info.map_pose = poses.at(id);
-      }
-      store.insert(info, structure, ++revision);
-    }
-  }
+  writePriorMap(dir / "landmarks.vslam-map", poses, 3);
   const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
   const fs::path config = dir / "vslam.yaml";
   auto write_config = [&](const std::string& prior) {
@@ -438,6 +446,79 @@ processes:
     ADD_FAILURE() << "a file that is not a map was accepted";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("not-a-map"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
+  // A robot switched on somewhere in a saved map (map_prior_start: unknown):
+  // kidnapped from the start, relocalized once two landmarks agree.
+  const fs::path dir = vslam::test::scratchDir("backend_map_prior_unknown");
+  const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {3.0, 0.5, 2.0}}};
+  writePriorMap(dir / "landmarks.vslam-map", poses, 2);
+  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
+  const fs::path config = dir / "vslam.yaml";
+  auto write_config = [&](const std::string& start) {
+    std::ofstream(config) << "robot: " << robot.string() << R"(
+processes:
+  backend:
+    role: backend
+    sigma_translation: 0.03
+    sigma_rotation: 0.03
+    num_particles: 100
+    map_prior_file: landmarks.vslam-map
+    map_prior_start: )" << start
+                          << R"(
+    kidnap:
+      recover_landmarks: 2
+)";
+  };
+  write_config("unknown");
+  auto stack = config::StackConfig::loadFile(config);
+  stages::BackendStage stage(
+      stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+  backend::Backend& be = stage.backend();
+  EXPECT_TRUE(be.filter().kidnapped());
+
+  const Pose2 truth{2.2, 1.4, 1.0};  // the robot stands here, 2.6 m from the map origin
+  const int64_t t0 = 1'700'000'000'000'000;
+  be.addOdometry({t0, 1, {0, 0, 0}});
+  be.addOdometry({t0 + 20'000, 2, {0, 0, 0}});
+  auto measure = [&](int64_t id) {
+    backend::MeasurementInput m;
+    m.utime = t0 + 20'000;
+    m.landmark_id = id;
+    m.relative = poses.at(id).between(truth);
+    m.proj_err_rms_px = 0.5;
+    m.num_points = 40;
+    m.slope = 0.01;
+    return be.addMeasurement(m);
+  };
+  EXPECT_FALSE(measure(1).update.recovered);  // particles drawn from landmark 1
+  EXPECT_TRUE(be.filter().kidnapped());
+  EXPECT_FALSE(measure(1).update.recovered);  // agrees, but one landmark confirms nothing
+  EXPECT_TRUE(measure(2).update.recovered);   // a second one agrees
+  EXPECT_FALSE(be.filter().kidnapped());
+  const Pose2 relocalized = be.filter().estimate().mean;
+  EXPECT_NEAR(relocalized.x, truth.x, 0.15);
+  EXPECT_NEAR(relocalized.y, truth.y, 0.15);
+  EXPECT_NEAR(wrapAngle(relocalized.theta - truth.theta), 0.0, 0.05);
+
+  // By default the robot starts at the map origin; anything else is an error naming the key.
+  write_config("origin");
+  stack = config::StackConfig::loadFile(config);
+  EXPECT_FALSE(
+      stages::BackendStage(stages::BackendStageParams::load(stack.process("backend"), stack.robot))
+          .backend()
+          .filter()
+          .kidnapped());
+  write_config("somewhere");
+  stack = config::StackConfig::loadFile(config);
+  try {
+    stages::BackendStageParams::load(stack.process("backend"), stack.robot);
+    ADD_FAILURE() << "map_prior_start: somewhere was accepted";
+  } catch (const config::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("map_prior_start"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
 }
