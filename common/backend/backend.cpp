@@ -6,6 +6,12 @@
 
 namespace vslam::backend {
 
+namespace {
+// A measurement at most this fraction of the particles gates out counts as
+// consistent for the odometry calibration.
+constexpr double kConsistentOutlierFraction = 0.5;
+}  // namespace
+
 const char* toString(MeasurementUse u) {
   switch (u) {
     case MeasurementUse::kUsed:
@@ -45,6 +51,7 @@ void MapCorrectionParams::validate() const {
 void BackendParams::validate() const {
   filter.validate();
   if (map_correction.enabled) map_correction.validate();
+  if (odometry_calibration.enabled) odometry_calibration.validate();
   prefilter.validate();
   if (!(max_step_m > 0) || !(max_step_rad > 0))
     throw std::invalid_argument("backend: max_step_m and max_step_rad must be > 0");
@@ -62,6 +69,7 @@ Backend::Backend(BackendParams params)
       filter_(params_.filter),
       increments_(params_.max_step_m, params_.max_step_rad) {
   if (params_.map_correction.enabled) graph_.emplace(params_.map_correction.graph);
+  if (params_.odometry_calibration.enabled) calibration_.emplace(params_.odometry_calibration);
 }
 
 OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading) {
@@ -81,6 +89,7 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
       // A new odometry frame: the history no longer relates to it, nor do
       // the pose graph's odometry edges.
       history_.clear();
+      if (calibration_) calibration_->breakOdometry();
       if (graph_ && graph_->numNodes() > 0) {
         graph_->breakOdometry(reading.utime);
         ++counters_.graph_odometry_breaks;
@@ -267,7 +276,7 @@ Observation Backend::alignedObservation(const MeasurementInput& m, const Pose2& 
   r(1, 1) += std::pow(params_.measurement_sigma_xy_per_m * dist, 2);
   r(2, 2) += std::pow(params_.measurement_sigma_theta_rad_per_m * dist, 2);
   obs.covariance =
-      jy * r * jy.transpose() + jd * params_.filter.motion.stepCovariance(d) * jd.transpose();
+      jy * r * jy.transpose() + jd * filter_.params().motion.stepCovariance(d) * jd.transpose();
   return obs;
 }
 
@@ -304,14 +313,22 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     last_used_[m.landmark_id] = m.utime;
   }
   result.update = filter_.update(obs);
-  counters_.landmarks_initialized += result.update.kind == UpdateKind::kInitialized;
-  counters_.kidnaps_detected += result.update.kidnap_detected;
-  counters_.recoveries += result.update.recovered;
-  counters_.resamplings += result.update.resampled;
+  const UpdateReport& u = result.update;
+  counters_.landmarks_initialized += u.kind == UpdateKind::kInitialized;
+  counters_.kidnaps_detected += u.kidnap_detected;
+  counters_.recoveries += u.recovered;
+  counters_.resamplings += u.resampled;
+  if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();
+  // Consistent: most particles found it within the gate.
+  const bool consistent =
+      !filter_.kidnapped() &&
+      (u.kind == UpdateKind::kInitialized ||
+       static_cast<double>(u.num_outliers) <=
+           kConsistentOutlierFraction * static_cast<double>(filter_.particles().size()));
+  if (calibration_ && consistent && !u.suspect) calibrate(m, *then_odometry);
   if (graph_) {
-    if (result.update.recovered) joinOrBreakAfterKidnap();
+    if (u.recovered) joinOrBreakAfterKidnap();
     if (!filter_.kidnapped()) {
-      const UpdateReport& u = result.update;
       addToGraph(m, *then_odometry,
                  u.kind == UpdateKind::kInitialized ||
                      static_cast<double>(u.num_outliers) <=
@@ -320,6 +337,16 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     }
   }
   return finish(MeasurementUse::kUsed);
+}
+
+void Backend::calibrate(const MeasurementInput& m, const OdometryAt& then) {
+  if (!calibration_->add(m.landmark_id, m.utime, m.relative, then)) return;
+  if (!params_.odometry_calibration.adopt) return;
+  const OdometryNoiseEstimate e = calibration_->estimate();
+  if (!e.valid) return;
+  const MotionNoise noise = calibration_->adoptable(e);
+  filter_.setMotionNoise(noise);
+  if (graph_) graph_->setOdometryNoise(noise.sigma_translation, noise.sigma_rotation);
 }
 
 }  // namespace vslam::backend

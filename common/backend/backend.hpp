@@ -31,6 +31,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "backend/odometry_calibration.hpp"
 #include "backend/particle_filter.hpp"
 #include "backend/pose_graph.hpp"
 #include "backend/prefilter.hpp"
@@ -69,6 +70,7 @@ struct MapCorrectionParams {
 struct BackendParams {
   FilterParams filter;
   MapCorrectionParams map_correction;
+  OdometryCalibrationParams odometry_calibration;
   PrefilterParams prefilter;
   double max_step_m = 1.0;  // odometry jumps larger than this are faults, not motion
   double max_step_rad = M_PI / 2;
@@ -158,6 +160,11 @@ class Backend {
   const std::optional<OdometryReading>& lastOdometry() const { return increments_.last(); }
   // The pose graph of map correction (nullptr when disabled).
   const PoseGraph* poseGraph() const { return graph_ ? &*graph_ : nullptr; }
+  // The odometry's noise and biases estimated from the measurements
+  // (invalid when odometry_calibration is disabled or has too few pairs).
+  OdometryNoiseEstimate odometryNoise() const {
+    return calibration_ ? calibration_->estimate() : OdometryNoiseEstimate{};
+  }
 
  private:
   // The odometry at `utime`, interpolated in the history; none (and *why)
@@ -185,6 +192,9 @@ class Backend {
   std::deque<HistoryEntry> history_;  // accepted readings, oldest first
   double distance_m_ = 0, rotation_rad_ = 0;
   std::optional<PoseGraph> graph_;
+  std::optional<OdometryNoiseEstimator> calibration_;
+  // A measurement the filter found consistent also calibrates the odometry.
+  void calibrate(const MeasurementInput& m, const OdometryAt& then);
   int64_t next_solve_utime_ = 0;
   int64_t graph_measurements_since_solve_ = 0;
   std::unordered_map<int64_t, int64_t> graph_last_used_;  // landmark id -> utime in the graph

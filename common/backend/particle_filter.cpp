@@ -408,6 +408,12 @@ size_t ParticleFilter::numSuspectLandmarks() const {
   return n;
 }
 
+void ParticleFilter::setMotionNoise(const MotionNoise& noise) {
+  if (!(noise.sigma_translation >= 0 && noise.sigma_rotation >= 0))
+    throw std::invalid_argument("backend filter: motion sigmas must be >= 0");
+  params_.motion = noise;
+}
+
 void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;

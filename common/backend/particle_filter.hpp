@@ -236,6 +236,8 @@ class ParticleFilter {
   // The slot of a landmark id, or -1 if the filter has not seen it.
   int64_t slotOf(int64_t landmark_id) const;
   const FilterParams& params() const { return params_; }
+  // The motion model's noise from now on (odometry calibration).
+  void setMotionNoise(const MotionNoise& noise);
 
  private:
   template <class F>

@@ -115,6 +115,11 @@ class PoseGraph {
   size_t numMeasurements() const { return measurements_.size(); }
   size_t numSegments() const { return segment_start_.size(); }
   const PoseGraphParams& params() const { return params_; }
+  // The odometry edges' noise from the next solve on (odometry calibration).
+  void setOdometryNoise(double sigma_translation, double sigma_rotation) {
+    params_.sigma_translation = sigma_translation;
+    params_.sigma_rotation = sigma_rotation;
+  }
 
  private:
   struct Node {

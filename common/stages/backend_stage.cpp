@@ -122,6 +122,24 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
         static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
     kd.requireAllKeysUsed();
   }
+  if (node.has("odometry_calibration")) {
+    // The defaults are the struct's (backend/odometry_calibration.hpp).
+    const config::ConfigNode oc = node.child("odometry_calibration");
+    backend::OdometryCalibrationParams& c = b.odometry_calibration;
+    c.enabled = oc.getBool("enabled", c.enabled);
+    c.adopt = oc.getBool("adopt", c.adopt);
+    c.min_travel = oc.getDouble("min_travel", c.min_travel, InRange{1e-3, 100});
+    c.max_travel = oc.getDouble("max_travel", c.max_travel, InRange{1e-3, 1000});
+    c.max_span_s = oc.getDouble("max_span_s", c.max_span_s, InRange{1e-3, 3600});
+    c.max_residual_m = oc.getDouble("max_residual_m", c.max_residual_m, InRange{1e-3, 100});
+    c.max_residual_rad = degToRad(
+        oc.getDouble("max_residual_deg", radToDeg(c.max_residual_rad), InRange{1e-3, 180}));
+    c.min_pairs = static_cast<int>(oc.getInt("min_pairs", c.min_pairs, InRange{3, 1e6}));
+    c.max_pairs = static_cast<int>(oc.getInt("max_pairs", c.max_pairs, InRange{3, 1e7}));
+    if (c.max_pairs < c.min_pairs) throw oc.error("max_pairs", "must be at least min_pairs");
+    if (c.max_travel <= c.min_travel) throw oc.error("max_travel", "must exceed min_travel");
+    oc.requireAllKeysUsed();
+  }
   if (node.has("map_correction")) {
     const config::ConfigNode mc = node.child("map_correction");
     backend::MapCorrectionParams& m = b.map_correction;
@@ -449,6 +467,21 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("resamplings", static_cast<double>(c.resamplings), "count");
   report.add("odometry_ignored", static_cast<double>(c.odometry_ignored), "count");
   report.add("position_sigma", std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)), "m");
+  if (params_.backend.odometry_calibration.enabled) {
+    // The odometry as the measurements see it, and the motion model in use.
+    const backend::OdometryNoiseEstimate n = backend_.odometryNoise();
+    report.add("odometry_calibration_pairs", n.pairs, "count");
+    if (n.valid) {
+      report.add("odometry_sigma_translation_est", n.sigma_translation, "m/sqrt(m)");
+      report.add("odometry_sigma_rotation_est", n.sigma_rotation, "rad/sqrt(m+rad)");
+      report.add("odometry_scale_bias_est", n.scale_bias);
+      report.add("odometry_heading_bias_est", n.heading_bias, "rad/m");
+    }
+    report.add("motion_sigma_translation", backend_.filter().params().motion.sigma_translation,
+               "m/sqrt(m)");
+    report.add("motion_sigma_rotation", backend_.filter().params().motion.sigma_rotation,
+               "rad/sqrt(m+rad)");
+  }
   report.add("updates", static_cast<double>(period_updates_), "count");
   report.add("update_ms_mean",
              period_updates_ > 0 ? period_update_ms_ / static_cast<double>(period_updates_) : 0.0,
