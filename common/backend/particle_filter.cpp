@@ -247,6 +247,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   } else {
     // A run of inconsistent measurements in a row (KidnapParams). A known
     // look-alike's inconsistent measurement neither extends nor ends it.
+    if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
       if (!suspect) {
         const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
@@ -259,8 +260,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       for (const Inconsistent& l : low_run_) {
         if (std::find(seen.begin(), seen.end(), l.slot) != seen.end()) continue;
         seen.push_back(l.slot);
-        if (contradicted_.size() <= l.slot) contradicted_.resize(ids_.size(), 0);
-        ++contradicted_[l.slot];
+        record(l.slot).contradicted += 1;
       }
       low_run_.clear();
     }
@@ -397,14 +397,23 @@ bool ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
   return false;
 }
 
+ParticleFilter::LandmarkRecord& ParticleFilter::record(uint32_t slot) {
+  if (records_.size() <= slot) records_.resize(ids_.size());
+  return records_[slot];
+}
+
 bool ParticleFilter::isSuspect(uint32_t slot) const {
   const int after = params_.kidnap.suspect_after;
-  return after > 0 && slot < contradicted_.size() && contradicted_[slot] >= after;
+  if (after <= 0 || slot >= records_.size()) return false;
+  // A landmark measured consistently far more often than contradicted is
+  // no look-alike: it was in a run by ill luck (drift before a loop closes).
+  const LandmarkRecord& r = records_[slot];
+  return r.contradicted >= after && 2 * r.contradicted >= r.consistent;
 }
 
 size_t ParticleFilter::numSuspectLandmarks() const {
   size_t n = 0;
-  for (uint32_t slot = 0; slot < contradicted_.size(); ++slot) n += isSuspect(slot);
+  for (uint32_t slot = 0; slot < records_.size(); ++slot) n += isSuspect(slot);
   return n;
 }
 
@@ -485,7 +494,7 @@ void ParticleFilter::resample() {
 void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
   slots_.clear();
   ids_.clear();
-  contradicted_.clear();
+  records_.clear();
   low_run_.clear();
   LandmarkMap map;
   for (const KnownLandmark& l : landmarks) {

@@ -95,8 +95,9 @@ struct KidnapParams {
   double cluster_xy_m = 0.5;
   double cluster_theta_rad = 20 * M_PI / 180;
   // Landmarks whose inconsistent measurements were contradicted (the run
-  // they were in ended with a consistent measurement) this many times are
-  // known look-alikes: they give no kidnap evidence and no dual particles.
+  // they were in ended with a consistent measurement) this many times, and
+  // at least half as often as they were measured consistently, are known
+  // look-alikes: they give no kidnap evidence and no dual particles.
   // 0: never.
   int suspect_after = 0;
   // The recovery needs consistent measurements of this many distinct
@@ -266,7 +267,14 @@ class ParticleFilter {
 
   bool kidnapped_ = false;
   std::vector<Inconsistent> low_run_;  // the current run of inconsistent measurements
-  std::vector<int> contradicted_;  // per slot: inconsistent runs it was in that ended consistent
+  // Per slot: measurements that agreed (a >= recover_agreement), and
+  // inconsistent runs it was in that ended with a consistent measurement.
+  struct LandmarkRecord {
+    int consistent = 0;
+    int contradicted = 0;
+  };
+  LandmarkRecord& record(uint32_t slot);
+  std::vector<LandmarkRecord> records_;
   int recover_count_ = 0;
   std::vector<int64_t> recover_landmarks_;  // distinct landmarks in the recovering run
   Pose2 odometry_;                          // the predict steps composed: the run's own frame

@@ -331,15 +331,16 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
       log::debug("update t ", msg.utime, " ", msg.camera, " landmark ", msg.landmark_id, " ",
                  backend::toString(r.update.kind), " agreement ", r.update.agreement, " smoothed ",
                  r.update.smoothed_agreement, " dual ", r.update.num_dual, " outliers ",
-                 r.update.num_outliers, " ess ", r.update.ess);
+                 r.update.num_outliers, " ess ", r.update.ess,
+                 r.update.suspect ? " look-alike" : "");
       if (r.update.kidnap_detected) {
-        log::warn("kidnapping detected at measurement ", msg.seq, " of ", msg.camera, " (landmark ",
-                  msg.landmark_id, ", agreement ", r.update.agreement,
+        log::warn("kidnapping detected at t ", msg.utime, ", measurement ", msg.seq, " of ",
+                  msg.camera, " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement,
                   "): sampling all particles from the measurements");
       }
       if (r.update.recovered) {
-        log::info("relocalized at measurement ", msg.seq, " of ", msg.camera, " (landmark ",
-                  msg.landmark_id, ", agreement ", r.update.agreement, ")");
+        log::info("relocalized at t ", msg.utime, ", measurement ", msg.seq, " of ", msg.camera,
+                  " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
       }
       break;
     case MeasurementUse::kRejected:
