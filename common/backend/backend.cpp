@@ -303,10 +303,15 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
     if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us) {
       // Not for the filter, but the pose graph models the correlation (its
-      // measurement error grows with the distance) and may take it.
-      if (graph_ && !filter_.kidnapped()) {
-        addToGraph(m, *then_odometry,
-                   filter_.outlierFraction(obs) <= params_.map_correction.max_outlier_fraction);
+      // measurement error grows with the distance) and may take it, and the
+      // odometry calibration pairs it with the landmark's other measurements.
+      if ((graph_ || calibration_) && !filter_.kidnapped()) {
+        const double outliers = filter_.outlierFraction(obs);
+        if (graph_)
+          addToGraph(m, *then_odometry, outliers <= params_.map_correction.max_outlier_fraction);
+        if (calibration_ && outliers <= kConsistentOutlierFraction &&
+            !filter_.isLookAlike(m.landmark_id))
+          calibrate(m, *then_odometry);
       }
       return finish(MeasurementUse::kThinned);
     }

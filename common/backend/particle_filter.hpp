@@ -226,6 +226,10 @@ class ParticleFilter {
   void startKidnapped();
   // Landmarks currently marked as look-alikes (KidnapParams::suspect_after).
   size_t numSuspectLandmarks() const;
+  bool isLookAlike(int64_t landmark_id) const {
+    const int64_t slot = slotOf(landmark_id);
+    return slot >= 0 && isSuspect(static_cast<uint32_t>(slot));
+  }
   double lastDualRatio() const { return last_dual_ratio_; }
   const std::vector<Particle>& particles() const { return particles_; }
   // For tests and tools that set up a particle set by hand.

@@ -338,6 +338,7 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                   msg.camera, " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement,
                   "): sampling all particles from the measurements");
       }
+      logOdometryCalibration();
       if (r.update.recovered) {
         log::info("relocalized at t ", msg.utime, ", measurement ", msg.seq, " of ", msg.camera,
                   " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
@@ -368,6 +369,20 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
       break;
     }
   }
+}
+
+void BackendStage::logOdometryCalibration() {
+  // Every kCalibrationLogPairs new pairs: what the measurements say of the odometry.
+  constexpr int kCalibrationLogPairs = 100;
+  if (!params_.backend.odometry_calibration.enabled) return;
+  const backend::OdometryNoiseEstimate n = backend_.odometryNoise();
+  if (!n.valid || n.pairs < calibration_logged_pairs_ + kCalibrationLogPairs) return;
+  calibration_logged_pairs_ = n.pairs;
+  log::info("odometry calibration (", n.pairs, " pairs): sigma_translation ", n.sigma_translation,
+            " m/sqrt(m), sigma_rotation ", n.sigma_rotation, " rad/sqrt(m+rad), scale_bias ",
+            n.scale_bias, ", heading_bias ", n.heading_bias, " rad/m; motion model ",
+            backend_.filter().params().motion.sigma_translation, ", ",
+            backend_.filter().params().motion.sigma_rotation);
 }
 
 void BackendStage::publishPose(const vslam::odometry_t& msg) {

@@ -74,6 +74,7 @@ class BackendStage final : public bus::Stage {
   void onMeasurement(const vslam::visual_measurement_t& msg);
   void onLandmarkUpdate(const vslam::landmark_update_t& msg);
   void publishPose(const vslam::odometry_t& msg);
+  void logOdometryCalibration();
   void publishMap(Utime utime);
   void publishParticles(Utime utime);
   // At most one log line per reason per 5 s of stage time.
@@ -94,6 +95,7 @@ class BackendStage final : public bus::Stage {
   int64_t period_updates_ = 0;
   double period_update_ms_ = 0;
   double period_max_update_ms_ = 0;
+  int calibration_logged_pairs_ = 0;
 };
 
 void registerBackend(bus::StageRegistry& registry);
