@@ -80,6 +80,29 @@ RunResult runWorld(const test::SyntheticWorld& world, ParticleFilter& pf,
   return out;
 }
 
+// What followed a kidnapping at `kidnap_tick`: the first measurement after
+// it, whether the filter declared a kidnapping, and the first measurement at
+// which it was back within 0.3 m and no longer kidnapped (0: never).
+struct Recovery {
+  size_t first_after = 0;
+  bool detected = false;
+  size_t relocalized_at = 0;
+};
+
+Recovery recoveryAfter(const RunResult& r, size_t kidnap_tick) {
+  Recovery out;
+  while (out.first_after < r.ticks.size() && r.ticks[out.first_after] < kidnap_tick)
+    ++out.first_after;
+  for (size_t i = out.first_after; i < r.ticks.size(); ++i) {
+    out.detected = out.detected || r.kidnapped[i];
+    if (out.detected && !r.kidnapped[i] && r.errors[i] < 0.3) {
+      out.relocalized_at = i;
+      break;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 // --- Measurement model and the landmark Kalman filter -----------------------
@@ -411,8 +434,8 @@ TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
   ParticleFilter pf(p);
   const RunResult r = runWorld(world, pf);
 
-  size_t first_after = 0;
-  while (first_after < r.ticks.size() && r.ticks[first_after] < kidnap_tick) ++first_after;
+  const Recovery rec = recoveryAfter(r, kidnap_tick);
+  const size_t first_after = rec.first_after, recovered_at = rec.relocalized_at;
   ASSERT_LT(first_after + 20, r.ticks.size());
   // Before: tracking, never kidnapped. (The error is the map's: up to ~30 cm
   // of odometry drift before the loop closes at the end of the first lap.)
@@ -422,16 +445,7 @@ TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
   }
   EXPECT_GT(r.errors[first_after], 1.0);  // the kidnapping happened
   // Detected within a few measurements, and relocalized.
-  bool detected = false;
-  size_t recovered_at = 0;
-  for (size_t i = first_after; i < r.ticks.size(); ++i) {
-    detected = detected || r.kidnapped[i];
-    if (detected && !r.kidnapped[i] && r.errors[i] < 0.3) {
-      recovered_at = i;
-      break;
-    }
-  }
-  EXPECT_TRUE(detected);
+  EXPECT_TRUE(rec.detected);
   ASSERT_GT(recovered_at, 0u) << "never relocalized";
   EXPECT_LT(recovered_at - first_after, 15u);
   // And stays localized.
@@ -712,20 +726,11 @@ TEST(ParticleFilter, ARealKidnappingIsStillDetectedAmongRepeatedPatterns) {
   const auto alias = repeatedPattern(world, 2, 4, 5.0);
   ParticleFilter pf(homeParams(300));
   const RunResult r = runWorld(world, pf, {}, alias);
-  size_t first_after = 0;
-  while (first_after < r.ticks.size() && r.ticks[first_after] < kidnap_tick) ++first_after;
-  ASSERT_LT(first_after + 20, r.ticks.size());
-  for (size_t i = 0; i < first_after; ++i) EXPECT_FALSE(r.kidnapped[i]) << "measurement " << i;
-  bool detected = false;
-  size_t recovered_at = 0;
-  for (size_t i = first_after; i < r.ticks.size(); ++i) {
-    detected = detected || r.kidnapped[i];
-    if (detected && !r.kidnapped[i] && r.errors[i] < 0.3) {
-      recovered_at = i;
-      break;
-    }
-  }
-  EXPECT_TRUE(detected);
+  const Recovery rec = recoveryAfter(r, kidnap_tick);
+  const size_t recovered_at = rec.relocalized_at;
+  ASSERT_LT(rec.first_after + 20, r.ticks.size());
+  for (size_t i = 0; i < rec.first_after; ++i) EXPECT_FALSE(r.kidnapped[i]) << "measurement " << i;
+  EXPECT_TRUE(rec.detected);
   ASSERT_GT(recovered_at, 0u) << "never relocalized";
   // Detection waits for 2 s of evidence; relocalized within 15 s of robot time.
   EXPECT_LT(world.utime(r.ticks[recovered_at]) - world.utime(kidnap_tick), 15'000'000);

@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <vslam/health_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/map_t.hpp>
@@ -356,6 +357,17 @@ processes:
 
 namespace {
 
+// A stack config with the simulated robot and a back-end with the motion
+// model 0.03 / 0.03 and `keys` (lines of its block, relative indentation).
+void writeBackendConfig(const fs::path& config, const std::string& keys) {
+  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
+  std::ostringstream block;
+  std::istringstream lines("role: backend\nsigma_translation: 0.03\nsigma_rotation: 0.03\n" + keys);
+  for (std::string line; std::getline(lines, line);) block << "    " << line << "\n";
+  std::ofstream(config) << "robot: " << robot.string() << "\nprocesses:\n  backend:\n"
+                        << block.str();
+}
+
 // An earlier run's map file: landmarks 1..count, those in `poses` with a
 // back-end pose (pose source "map"), the others known only by their
 // creation odometry pose (another frame).
@@ -397,21 +409,10 @@ TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
   const fs::path dir = vslam::test::scratchDir("backend_map_prior");
   const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {-3.0, 0.25, -2.0}}};
   writePriorMap(dir / "landmarks.vslam-map", poses, 3);
-  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
   const fs::path config = dir / "vslam.yaml";
   auto write_config = [&](const std::string& prior) {
-    std::ofstream(config) << "robot: " << robot.string() << R"(
-processes:
-  backend:
-    role: backend
-    sigma_translation: 0.03
-    sigma_rotation: 0.03
-    num_particles: 50
-    map_prior_file: )" << prior
-                          << R"(
-    map_prior_sigma_xy_m: 0.1
-    map_prior_sigma_theta_deg: 2.0
-)";
+    writeBackendConfig(config, "num_particles: 50\nmap_prior_file: " + prior +
+                                   "\nmap_prior_sigma_xy_m: 0.1\nmap_prior_sigma_theta_deg: 2.0\n");
   };
   write_config("landmarks.vslam-map");  // relative to the config file
   auto stack = config::StackConfig::loadFile(config);
@@ -456,22 +457,12 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
   const fs::path dir = vslam::test::scratchDir("backend_map_prior_unknown");
   const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {3.0, 0.5, 2.0}}};
   writePriorMap(dir / "landmarks.vslam-map", poses, 2);
-  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
   const fs::path config = dir / "vslam.yaml";
   auto write_config = [&](const std::string& start) {
-    std::ofstream(config) << "robot: " << robot.string() << R"(
-processes:
-  backend:
-    role: backend
-    sigma_translation: 0.03
-    sigma_rotation: 0.03
-    num_particles: 100
-    map_prior_file: landmarks.vslam-map
-    map_prior_start: )" << start
-                          << R"(
-    kidnap:
-      recover_landmarks: 2
-)";
+    writeBackendConfig(config,
+                       "num_particles: 100\nmap_prior_file: landmarks.vslam-map\n"
+                       "map_prior_start: " +
+                           start + "\nkidnap:\n  recover_landmarks: 2\n");
   };
   write_config("unknown");
   auto stack = config::StackConfig::loadFile(config);
