@@ -224,7 +224,18 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   rep.suspect = suspect;
   const MixtureParams& mix = params_.mixture;
   bool all_dual = false;
+  bool confirmed_by_cluster = false;
   if (kidnapped_) {
+    if (kp.recover_window_s > 0) {
+      reloc_run_.push_back(implied(obs, slot));
+      const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
+      reloc_run_.erase(
+          std::remove_if(reloc_run_.begin(), reloc_run_.end(),
+                         [&](const Implied& e) { return obs.utime - e.utime > window; }),
+          reloc_run_.end());
+      confirmed_by_cluster =
+          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks;
+    }
     if (agreement >= kp.recover_agreement) {
       ++recover_count_;
       if (std::find(recover_landmarks_.begin(), recover_landmarks_.end(), obs.landmark_id) ==
@@ -242,6 +253,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       recover_count_ = 0;
       recover_landmarks_.clear();
     } else {
+      // Confirmed by the cluster: one more all-dual draw, from this
+      // measurement (one of the cluster), then the mixture again.
       all_dual = true;
     }
   } else {
@@ -249,15 +262,11 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     // look-alike's inconsistent measurement neither extends nor ends it.
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
-      if (!suspect) {
-        const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
-        low_run_.push_back(
-            {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(y), odometry_});
-      }
+      if (!suspect) low_run_.push_back(implied(obs, slot));
     } else if (!low_run_.empty()) {
       // Contradicted: every landmark of the run was seen somewhere it is not.
       std::vector<uint32_t> seen;
-      for (const Inconsistent& l : low_run_) {
+      for (const Implied& l : low_run_) {
         if (std::find(seen.begin(), seen.end(), l.slot) != seen.end()) continue;
         seen.push_back(l.slot);
         record(l.slot).contradicted += 1;
@@ -268,6 +277,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       held_ = estimate().mean;  // published until the relocalization is confirmed
       kidnapped_ = true;
       rep.kidnap_detected = true;
+      reloc_run_.clear();
       low_run_.clear();
       recover_count_ = 0;
       recover_landmarks_.clear();
@@ -362,6 +372,13 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   for (char o : outlier) rep.num_outliers += o;
   normalize();
   rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
+  if (kidnapped_ && confirmed_by_cluster) {
+    kidnapped_ = false;
+    rep.recovered = true;
+    recover_count_ = 0;
+    recover_landmarks_.clear();
+  }
+  if (!kidnapped_) reloc_run_.clear();
   rep.num_dual = static_cast<int>(n_dual);
   rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
   rep.smoothed_agreement = smoothed_agreement_;
@@ -374,25 +391,35 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   return rep;
 }
 
+ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t slot) const {
+  const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
+  return {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(obs.relative), odometry_};
+}
+
+int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i) const {
+  const KidnapParams& kp = params_.kidnap;
+  // The implied poses carried to the present by the odometry since.
+  auto now = [&](const Implied& m) { return m.implied.compose(m.odometry.between(odometry_)); };
+  const Pose2 ref = now(run[i]);
+  std::vector<int64_t> agreeing;
+  for (const Implied& m : run) {
+    const Pose2 p = now(m);
+    if (std::hypot(p.x - ref.x, p.y - ref.y) > kp.cluster_xy_m ||
+        std::abs(wrapAngle(p.theta - ref.theta)) > kp.cluster_theta_rad)
+      continue;
+    if (std::find(agreeing.begin(), agreeing.end(), m.landmark_id) == agreeing.end())
+      agreeing.push_back(m.landmark_id);
+  }
+  return static_cast<int>(agreeing.size());
+}
+
 bool ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
   if (kp.detect_min_span_s > 0 &&
       static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
           kp.detect_min_span_s * 1e6)
     return false;
-  // The implied poses carried to the present by the odometry since.
-  std::vector<Pose2> now(low_run_.size());
-  for (size_t i = 0; i < low_run_.size(); ++i)
-    now[i] = low_run_[i].implied.compose(low_run_[i].odometry.between(odometry_));
-  for (size_t i = 0; i < now.size(); ++i) {
-    std::vector<int64_t> agreeing;
-    for (size_t j = 0; j < now.size(); ++j) {
-      if (std::hypot(now[j].x - now[i].x, now[j].y - now[i].y) > kp.cluster_xy_m ||
-          std::abs(wrapAngle(now[j].theta - now[i].theta)) > kp.cluster_theta_rad)
-        continue;
-      if (std::find(agreeing.begin(), agreeing.end(), low_run_[j].landmark_id) == agreeing.end())
-        agreeing.push_back(low_run_[j].landmark_id);
-    }
-    if (static_cast<int>(agreeing.size()) >= kp.detect_landmarks) return true;
+  for (size_t i = 0; i < low_run_.size(); ++i) {
+    if (agreeingLandmarks(low_run_, i) >= kp.detect_landmarks) return true;
   }
   return false;
 }
@@ -427,6 +454,7 @@ void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;
   low_run_.clear();
+  reloc_run_.clear();
   recover_count_ = 0;
   recover_landmarks_.clear();
 }

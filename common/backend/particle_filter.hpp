@@ -103,6 +103,11 @@ struct KidnapParams {
   // The recovery needs consistent measurements of this many distinct
   // landmarks in its run: one look-alike cannot confirm a relocalization.
   int recover_landmarks = 1;
+  // It is also confirmed when recover_landmarks distinct landmarks measured
+  // within the last recover_window_s (0: off) agree on one pose (cluster_*),
+  // the newest measurement among them: the all-dual particles, drawn from
+  // one measurement at a time, test only neighbours in a row.
+  double recover_window_s = 0.0;
 };
 
 struct FilterParams {
@@ -257,20 +262,26 @@ class ParticleFilter {
   std::unordered_map<int64_t, uint32_t> slots_;
   std::vector<int64_t> ids_;
   uint64_t step_ = 0;  // counts predict/update/resample calls: the random streams' step
-  // One inconsistent measurement of the current run: the robot pose it
-  // implies (best particle's landmark) and the odometry then.
-  struct Inconsistent {
+  // A measurement's implied robot pose (best particle's landmark) and the
+  // odometry then.
+  struct Implied {
     int64_t landmark_id;
     uint32_t slot;
     int64_t utime;
     Pose2 implied;
     Pose2 odometry;
   };
+  Implied implied(const Observation& obs, uint32_t slot) const;
+  // Distinct landmarks of `run` whose implied poses, carried to now by the
+  // odometry, agree with that of run[i] (KidnapParams::cluster_*).
+  int agreeingLandmarks(const std::vector<Implied>& run, size_t i) const;
   bool kidnapEvidence(const KidnapParams& kp) const;
   bool isSuspect(uint32_t slot) const;
 
   bool kidnapped_ = false;
-  std::vector<Inconsistent> low_run_;  // the current run of inconsistent measurements
+  std::vector<Implied> low_run_;  // the current run of inconsistent measurements
+  std::vector<Implied>
+      reloc_run_;  // while kidnapped: the measurements of the last recover_window_s
   // Per slot: measurements that agreed (a >= recover_agreement), and
   // inconsistent runs it was in that ended with a consistent measurement.
   struct LandmarkRecord {

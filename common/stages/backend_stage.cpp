@@ -120,6 +120,7 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
         static_cast<int>(kd.getInt("suspect_after", k.suspect_after, InRange{0, 1000}));
     k.recover_landmarks =
         static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
+    k.recover_window_s = kd.getDouble("recover_window_s", k.recover_window_s, InRange{0, 600});
     kd.requireAllKeysUsed();
   }
   if (node.has("odometry_calibration")) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 #include <numeric>
 
 #include "backend/landmark_map.hpp"
@@ -789,4 +790,47 @@ TEST(ParticleFilter, WithoutTheRepeatedPatternRulesThePatternDoesHarm) {
     worst = std::max(worst, r.errors[i]);
   }
   EXPECT_TRUE(kidnapped || worst > 0.5) << "worst " << worst;
+}
+
+TEST(ParticleFilter, TwoLandmarksAgreeingOnAPoseConfirmARelocalizationEvenWithAnOutlierBetween) {
+  const int64_t t0 = 1'700'000'000'000'000;
+  auto at = [&](int64_t id, const Pose2& y, int64_t seconds) {
+    Observation o;
+    o.landmark_id = id;
+    o.relative = y;
+    o.utime = t0 + seconds * 1'000'000;
+    return o;
+  };
+  // Landmarks at (-1, 0, 0), (0, -1, 0) and (3, 3, 0), initialised from the
+  // start pose; then the robot is lost. Landmark 1 says it is at (-3, 0);
+  // landmark 3 (a look-alike elsewhere) says (5, 5); landmark 2 agrees with
+  // landmark 1.
+  auto run = [&](double window_s, std::vector<UpdateReport>* reports) {
+    FilterParams p = homeParams(50);
+    p.kidnap.recover_window_s = window_s;
+    auto pf = std::make_unique<ParticleFilter>(p);
+    pf->update(at(1, {1, 0, 0}, 0));
+    pf->update(at(2, {0, 1, 0}, 0));
+    pf->update(at(3, {-3, -3, 0}, 0));
+    pf->startKidnapped();
+    reports->push_back(pf->update(at(1, {-2, 0, 0}, 1)));
+    reports->push_back(pf->update(at(3, {2, 2, 0}, 2)));
+    reports->push_back(pf->update(at(2, {-3, 1, 0}, 3)));
+    return pf;
+  };
+  std::vector<UpdateReport> reports;
+  const auto pf = run(10, &reports);
+  EXPECT_FALSE(reports[0].recovered);
+  EXPECT_FALSE(reports[1].recovered);
+  EXPECT_TRUE(reports[2].recovered);
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.2);
+
+  // Without the window the all-dual particles, drawn from landmark 3 at
+  // (5, 5), disagree with landmark 2: not confirmed yet.
+  reports.clear();
+  const auto in_a_row = run(0, &reports);
+  for (const UpdateReport& r : reports) EXPECT_FALSE(r.recovered);
+  EXPECT_TRUE(in_a_row->kidnapped());
 }
