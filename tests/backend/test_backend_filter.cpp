@@ -419,16 +419,26 @@ TEST(ParticleFilter, DualParticlesPutMassNearTheTruePose) {
 
 // --- Kidnapping ----------------------------------------------------------------
 
-TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
+namespace {
+
+// One and a half laps of mapping, then the robot is carried 4 m further
+// along its path (round a corner: 1-4 m away, turned by 90 degrees); it
+// goes on for another lap.
+test::SyntheticWorld kidnapWorld(size_t* kidnap_tick) {
   test::SyntheticParams sp;
   test::SyntheticWorld world(sp);
   const double perimeter = 2 * (sp.width_m + sp.height_m);
   const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
-  // One and a half laps of mapping, then the robot is carried 4 m further
-  // along its path (round a corner: 1-4 m away, turned by 90 degrees); it
-  // goes on for another lap.
-  const size_t kidnap_tick = lap_ticks + lap_ticks / 2;
-  world.build(2.6, kidnap_tick, 4.0);
+  *kidnap_tick = lap_ticks + lap_ticks / 2;
+  world.build(2.6, *kidnap_tick, 4.0);
+  return world;
+}
+
+}  // namespace
+
+TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
+  size_t kidnap_tick = 0;
+  const test::SyntheticWorld world = kidnapWorld(&kidnap_tick);
   FilterParams p = basicParams(300);
   p.mixture.dual_ratio_min = 0.1;
   p.mixture.dual_ratio_max = 0.5;
@@ -457,11 +467,8 @@ TEST(ParticleFilter, DetectsAKidnappingAndRelocalizes) {
 
 TEST(ParticleFilter, WithoutDualParticlesAKidnappedFilterStaysLost) {
   // The control for the test above: the basic filter (6.1) cannot recover.
-  test::SyntheticParams sp;
-  test::SyntheticWorld world(sp);
-  const double perimeter = 2 * (sp.width_m + sp.height_m);
-  const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
-  world.build(2.6, lap_ticks + lap_ticks / 2, 4.0);
+  size_t kidnap_tick = 0;
+  const test::SyntheticWorld world = kidnapWorld(&kidnap_tick);
   FilterParams p = basicParams(300);
   p.kidnap.detect_agreement = 0;  // no kidnap detection, no duals
   ParticleFilter pf(p);
@@ -718,12 +725,8 @@ TEST(ParticleFilter, ARepeatedPatternNeitherTriggersAKidnappingNorMovesTheEstima
 }
 
 TEST(ParticleFilter, ARealKidnappingIsStillDetectedAmongRepeatedPatterns) {
-  test::SyntheticParams sp;
-  test::SyntheticWorld world(sp);
-  const double perimeter = 2 * (sp.width_m + sp.height_m);
-  const auto lap_ticks = static_cast<size_t>(perimeter / (sp.speed_mps / sp.rate_hz));
-  const size_t kidnap_tick = lap_ticks + lap_ticks / 2;
-  world.build(2.6, kidnap_tick, 4.0);
+  size_t kidnap_tick = 0;
+  const test::SyntheticWorld world = kidnapWorld(&kidnap_tick);
   const auto alias = repeatedPattern(world, 2, 4, 5.0);
   ParticleFilter pf(homeParams(300));
   const RunResult r = runWorld(world, pf, {}, alias);
