@@ -21,6 +21,17 @@ namespace {
 // What each random stream is for (part of its seed).
 enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4 };
 
+// The newest measurements kept for the kidnap and relocalization tests:
+// their cost must not grow with a long run of inconsistent measurements
+// (a look-alike that never gives enough evidence).
+constexpr size_t kMaxRunMeasurements = 64;
+
+template <class T>
+void pushBounded(std::vector<T>& run, T value) {
+  if (run.size() >= kMaxRunMeasurements) run.erase(run.begin());
+  run.push_back(std::move(value));
+}
+
 // E[exp(-d^2/2)] for d^2 ~ chi^2 with 3 degrees of freedom: (1 + 1)^(-3/2).
 constexpr double kConsistentAgreement = 0.35355339059327373;
 
@@ -227,7 +238,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   bool confirmed_by_cluster = false;
   if (kidnapped_) {
     if (kp.recover_window_s > 0) {
-      reloc_run_.push_back(implied(obs, slot));
+      pushBounded(reloc_run_, implied(obs, slot));
       const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
       reloc_run_.erase(
           std::remove_if(reloc_run_.begin(), reloc_run_.end(),
@@ -253,8 +264,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       recover_count_ = 0;
       recover_landmarks_.clear();
     } else {
-      // Confirmed by the cluster: one more all-dual draw, from this
-      // measurement (one of the cluster), then the mixture again.
+      // Still kidnapped; if the cluster confirmed it, this is the last
+      // all-dual draw, from this measurement (one of the cluster).
       all_dual = true;
     }
   } else {
@@ -262,7 +273,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     // look-alike's inconsistent measurement neither extends nor ends it.
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
-      if (!suspect) low_run_.push_back(implied(obs, slot));
+      if (!suspect) pushBounded(low_run_, implied(obs, slot));
     } else if (!low_run_.empty()) {
       // Contradicted: every landmark of the run was seen somewhere it is not.
       std::vector<uint32_t> seen;
