@@ -670,10 +670,11 @@ FilterParams homeParams(int particles) {
   p.mixture.dual_ratio_min = 0.1;
   p.mixture.dual_ratio_max = 0.1;
   p.kidnap.detect_count = 4;
-  p.kidnap.detect_landmarks = 3;
+  p.kidnap.detect_landmarks = 2;
   p.kidnap.detect_min_span_s = 2.0;
   p.kidnap.suspect_after = 2;
   p.kidnap.recover_landmarks = 2;
+  p.kidnap.recover_window_s = 10.0;
   return p;
 }
 
