@@ -339,7 +339,6 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                   msg.camera, " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement,
                   "): sampling all particles from the measurements");
       }
-      logOdometryCalibration();
       if (r.update.recovered) {
         log::info("relocalized at t ", msg.utime, ", measurement ", msg.seq, " of ", msg.camera,
                   " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
@@ -372,11 +371,9 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
   }
 }
 
-void BackendStage::logOdometryCalibration() {
+void BackendStage::logOdometryCalibration(const backend::OdometryNoiseEstimate& n) {
   // Every kCalibrationLogPairs new pairs: what the measurements say of the odometry.
   constexpr int kCalibrationLogPairs = 100;
-  if (!params_.backend.odometry_calibration.enabled) return;
-  const backend::OdometryNoiseEstimate n = backend_.odometryNoise();
   if (!n.valid || n.pairs < calibration_logged_pairs_ + kCalibrationLogPairs) return;
   calibration_logged_pairs_ = n.pairs;
   log::info("odometry calibration (", n.pairs, " pairs): sigma_translation ", n.sigma_translation,
@@ -487,6 +484,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   if (params_.backend.odometry_calibration.enabled) {
     // The odometry as the measurements see it, and the motion model in use.
     const backend::OdometryNoiseEstimate n = backend_.odometryNoise();
+    logOdometryCalibration(n);
     report.add("odometry_calibration_pairs", n.pairs, "count");
     if (n.valid) {
       report.add("odometry_sigma_translation_est", n.sigma_translation, "m/sqrt(m)");

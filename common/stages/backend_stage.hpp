@@ -74,7 +74,8 @@ class BackendStage final : public bus::Stage {
   void onMeasurement(const vslam::visual_measurement_t& msg);
   void onLandmarkUpdate(const vslam::landmark_update_t& msg);
   void publishPose(const vslam::odometry_t& msg);
-  void logOdometryCalibration();
+  // Logs the estimate at every 100 new pairs (called with the health, once a period).
+  void logOdometryCalibration(const backend::OdometryNoiseEstimate& n);
   void publishMap(Utime utime);
   void publishParticles(Utime utime);
   // At most one log line per reason per 5 s of stage time.
