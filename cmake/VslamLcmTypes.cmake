@@ -3,10 +3,18 @@
 # Debian's LCM 1.3.1 ships no CMake helper (no lcm_wrap_types), so this file
 # runs lcm-gen itself: C++ headers into the build tree (never the source tree)
 # behind an INTERFACE target, and a Java jar of the same types for lcm-spy.
+# Beside the types it generates <TARGET>/wire_check.hpp (cmake/lcm_wire_check.py):
+# a check of an encoded message's counts against its bytes, run before the
+# generated decoder, which allocates whatever count a message claims.
 #
 #   vslam_lcm_types(TARGET name JAR_TARGET name FILES a.lcm b.lcm ...)
 
 find_program(LCM_GEN_EXECUTABLE lcm-gen REQUIRED)
+# The system interpreter (scripts/setup installs it; the scripts run it), not
+# whatever python3 a shell's PATH (pyenv, a venv) puts first. The generator
+# needs only the standard library.
+find_program(VSLAM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH REQUIRED)
+set(VSLAM_LCM_WIRE_CHECK_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/lcm_wire_check.py)
 find_package(Java 11 COMPONENTS Development REQUIRED)
 find_file(LCM_JAR lcm.jar PATHS /usr/share/java REQUIRED)
 
@@ -40,6 +48,17 @@ function(vslam_lcm_types)
     list(APPEND headers ${hpp})
     list(APPEND java_sources ${java})
   endforeach()
+
+  # One header for all the types: vslam::wire::check<Msg>().
+  set(wire_check ${cpp_root}/${ARG_TARGET}/wire_check.hpp)
+  add_custom_command(
+    OUTPUT ${wire_check}
+    COMMAND ${VSLAM_PYTHON3} ${VSLAM_LCM_WIRE_CHECK_SCRIPT} --output ${wire_check}
+            --namespace vslam::wire ${ARG_FILES}
+    DEPENDS ${VSLAM_LCM_WIRE_CHECK_SCRIPT} ${ARG_FILES}
+    COMMENT "lcm_wire_check.py ${ARG_TARGET}/wire_check.hpp"
+    VERBATIM)
+  list(APPEND headers ${wire_check})
 
   add_custom_target(${ARG_TARGET}_generate DEPENDS ${headers})
   add_library(${ARG_TARGET} INTERFACE)
