@@ -3,9 +3,11 @@
 // with decode checks and counters for the health message.
 //
 // LCM 1.3.1's typed subscribe prints "error decoding" to stderr and drops the
-// message silently; here every message is decoded by us, a message that fails
-// to decode or leaves trailing bytes is counted as malformed and logged
-// (rate-limited) with its channel, and an exception thrown by a handler is
+// message silently; here every message is decoded by us through
+// checkedDecode (its counts are checked against its bytes before the
+// generated decoder allocates anything), a message that fails the check or
+// leaves trailing bytes is counted as malformed and logged (rate-limited) with
+// its channel and the field at fault, and an exception thrown by a handler is
 // logged and counted without ending the process.
 
 #include <atomic>
@@ -18,6 +20,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "bus/checked_decode.hpp"
 #include "util/time.hpp"
 
 namespace vslam::bus {
@@ -104,11 +107,9 @@ struct HasUtime<T, std::void_t<decltype(std::declval<T>().utime)>> : std::true_t
 template <class Msg>
 bool Bus::TypedSubscription<Msg>::decodeAndHandle(const lcm::ReceiveBuffer* rbuf,
                                                   Utime* msg_utime) {
-  const int used = msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
-  if (used < 0 || static_cast<uint32_t>(used) != rbuf->data_size) {
-    bus->reportMalformed(channel, used < 0 ? "does not decode as " + type_name
-                                           : "has " + std::to_string(rbuf->data_size - used) +
-                                                 " bytes after a " + type_name);
+  std::string why;
+  if (!checkedDecode(msg, rbuf->data, rbuf->data_size, &why)) {
+    bus->reportMalformed(channel, why);
     return false;
   }
   if constexpr (detail::HasUtime<Msg>::value) *msg_utime = msg.utime;

@@ -2,6 +2,8 @@
 
 #include <vslam/health_t.hpp>
 
+#include "bus/checked_decode.hpp"
+
 namespace vslam::bus {
 
 HealthBarrier::HealthBarrier(lcm::LCM& lcm, const std::string& health_channel,
@@ -23,8 +25,7 @@ HealthBarrier::~HealthBarrier() {
 
 void HealthBarrier::onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&) {
   vslam::health_t health;
-  const int size = static_cast<int>(rbuf->data_size);
-  if (health.decode(rbuf->data, 0, size) != size) {
+  if (!checkedDecode(health, rbuf->data, rbuf->data_size, nullptr)) {
     ++malformed_;
     return;
   }

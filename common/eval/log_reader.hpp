@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "bus/checked_decode.hpp"
 #include "eval/errors.hpp"
 
 namespace vslam::eval {
@@ -35,15 +36,19 @@ std::map<std::string, int64_t> forEachLogEvent(
 // "A (3), B (7)" for error messages naming the channels of a log.
 std::string channelList(const std::map<std::string, int64_t>& counts);
 
-// Decodes an event as Msg; DataError if the type or length does not match.
+// Decodes an event as Msg (through bus::checkedDecode: a log is as untrusted
+// as the network); DataError naming the event and the field at fault if the
+// type, a count or the length does not match.
 template <class Msg>
 Msg decodeEvent(const LogEventRef& ref, const std::string& type_name) {
   Msg msg;
-  if (fingerprint(ref.event.data, ref.event.datalen) != Msg::getHash() ||
-      msg.decode(ref.event.data, 0, ref.event.datalen) != ref.event.datalen) {
+  std::string why;
+  if (ref.event.datalen < 0 ||
+      !bus::checkedDecode(msg, ref.event.data, static_cast<size_t>(ref.event.datalen), &why)) {
     std::ostringstream os;
     os << ref.log << ": event " << ref.event.eventnum << " on channel " << ref.event.channel
        << " (byte " << ref.offset << ") does not decode as " << type_name;
+    if (!why.empty()) os << " (" << why << ")";
     throw DataError(os.str());
   }
   return msg;

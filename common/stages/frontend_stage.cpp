@@ -6,6 +6,7 @@
 #include <vslam/landmark_request_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
+#include "bus/checked_decode.hpp"
 #include "stages/image_gray.hpp"
 #include "util/log.hpp"
 
@@ -322,7 +323,8 @@ void FrontendStage::prefetch(const std::string& channel, const void* data, size_
   // (The replay's look-ahead bounds how many are queued.)
   if (channel != params_.camera.image_channel) return;
   auto msg = std::make_shared<vslam::image_t>();
-  if (msg->decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
+  // Malformed: the bus's subscription reports it when the frame is delivered.
+  if (!bus::checkedDecode(*msg, data, size, nullptr)) return;
   const std::pair<Utime, int64_t> frame{msg->utime, msg->seq};
   prefetched_.emplace_back(frame, prefetch_worker_.submit([this, msg] {
     PrefetchedFeatures out;
