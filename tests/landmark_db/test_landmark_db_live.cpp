@@ -2,7 +2,9 @@
 // namespace: kill -9 while proposals stream in loses no acknowledged
 // landmark, the file passes SQLite's integrity check, a restarted DB reloads
 // it and answers proposals sent again with the same ids; a foreign map file
-// stops the process with a clear error and is left untouched.
+// stops the process with a clear error and is left untouched; the 39-byte
+// request claiming 5e8 ids that once killed it with SIGSEGV is counted
+// malformed and the next request is answered.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -11,6 +13,8 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <vslam/health_t.hpp>
+#include <vslam/landmark_request_t.hpp>
 #include <vslam/landmark_summary_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 
@@ -74,6 +78,7 @@ U proposal(int64_t proposal_id) {
 struct Listener {
   std::map<int64_t, int64_t> created;   // proposal_id -> global id (OP_CREATED)
   std::map<int64_t, int64_t> answered;  // proposal_id -> global id (OP_CREATED or OP_SNAPSHOT)
+  std::set<std::string> snapshot_requesters;
   int summaries = 0;
   int32_t last_stored = -1;
   std::string database_id;
@@ -85,6 +90,7 @@ struct Listener {
       if (u.op == U::OP_CREATED || u.op == U::OP_SNAPSHOT) {
         answered[u.landmark.proposal_id] = u.landmark.landmark_id;
       }
+      if (u.op == U::OP_SNAPSHOT) snapshot_requesters.insert(u.requester);
       database_id = u.database_id;
     });
     bus.subscribe("LANDMARK_SUMMARY", [this](const std::string&, const uint8_t* d, size_t n) {
@@ -189,4 +195,55 @@ TEST_F(LandmarkDbLive, AForeignMapFileStopsItWithAClearErrorAndIsLeftUntouched) 
   EXPECT_NE(log.find("thesis.sqlite"), std::string::npos) << log;
   EXPECT_NE(log.find("left untouched"), std::string::npos) << log;
   EXPECT_EQ(landmark_db::test::fileBytes(dir / "thesis.sqlite"), before);
+}
+
+TEST_F(LandmarkDbLive, AHostileRequestIsCountedMalformedAndTheNextOneAnswered) {
+  VSLAM_IN_FRESH_NETNS();
+  tt::TempDir tmp;
+  const fs::path dir(tmp.path());
+  writeConfig(dir, "map.vslam-map");
+  tt::TestBus bus(kUrl);
+  ASSERT_TRUE(bus.good());
+  Listener listener;
+  listener.attach(bus);
+  int64_t malformed = -1;
+  bus.subscribe("HEALTH", [&](const std::string&, const uint8_t* d, size_t n) {
+    vslam::health_t h{};
+    if (h.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n)) return;
+    if (h.instance == "landmark_db") malformed = h.messages_malformed;
+  });
+  tt::Child db = spawnDb(dir);
+  ASSERT_TRUE(bus.spinUntil([&] { return listener.summaries > 0; }, 20.0))
+      << "no summary from vslam-landmark-db";
+  bus.publish("LANDMARK_PROPOSAL", proposal(1));
+  ASSERT_TRUE(bus.spinUntil([&] { return listener.created.count(1) > 0; }, 5.0));
+
+  // Issue 19's message: a request with no ids, its count then set to 5e8.
+  vslam::landmark_request_t request{};
+  request.requester = "a";
+  std::vector<uint8_t> hostile(static_cast<size_t>(request.getEncodedSize()));
+  request.encode(hostile.data(), 0, static_cast<int>(hostile.size()));
+  ASSERT_EQ(hostile.size(), 39u);
+  const uint32_t claim = 500000000;
+  for (int i = 0; i < 4; ++i) hostile[35 + i] = static_cast<uint8_t>(claim >> (24 - 8 * i));
+  bus.publishRaw("LANDMARK_REQUEST", hostile);
+
+  request.requester = "after_the_hostile_one";
+  request.num_ids = 1;
+  request.landmark_ids = {listener.created[1]};
+  bus.publish("LANDMARK_REQUEST", request);
+  EXPECT_TRUE(bus.spinUntil(
+      [&] { return listener.snapshot_requesters.count(request.requester) > 0 || !db.running(); },
+      5.0))
+      << "the request after the hostile one was not answered";
+  ASSERT_TRUE(db.running()) << "vslam-landmark-db " << tt::describeStatus(*db.status());
+  EXPECT_TRUE(bus.spinUntil([&] { return malformed >= 1; }, 5.0))
+      << "HEALTH does not count the hostile request (messages_malformed " << malformed << ")";
+  EXPECT_EQ(malformed, 1);
+  db.sendSignal(SIGTERM);
+  const auto status = db.waitFor(10.0);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(tt::exitedWith(status, 0)) << tt::describeStatus(*status);
+  const std::string log = landmark_db::test::fileBytes(dir / "db.log");
+  EXPECT_NE(log.find("landmark_ids: 500000000 elements claimed"), std::string::npos) << log;
 }
