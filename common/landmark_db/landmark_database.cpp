@@ -20,6 +20,10 @@ bool finite(const std::vector<float>& v) {
 
 std::string LandmarkStructure::validate() const {
   if (num_points <= 0) return "no points";
+  if (num_points > kMaxLandmarkPoints) {
+    return std::to_string(num_points) + " points, more than the " +
+           std::to_string(kMaxLandmarkPoints) + " a landmark may have";
+  }
   if (descriptor_size <= 0 || descriptor_size > 1024) {
     return "descriptor size " + std::to_string(descriptor_size);
   }

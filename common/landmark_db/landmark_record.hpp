@@ -15,6 +15,12 @@
 
 namespace vslam::landmark_db {
 
+// The most points a landmark may have. The front-end keeps 20-300 (the most
+// in the apartment and generated homes: 288); a proposal claiming more is
+// refused by the DB and by the front-ends that would copy it into their
+// replicas, so one hostile message cannot grow every process by megabytes.
+inline constexpr int32_t kMaxLandmarkPoints = 2048;
+
 // Where a landmark's position for segmentation and duplicate detection comes from.
 enum class PoseSource : int {
   kOdometry = 0,     // only the creation pose in the creating run's odometry frame

@@ -7,6 +7,7 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/checked_decode.hpp"
+#include "landmark_db/landmark_record.hpp"
 #include "stages/image_gray.hpp"
 #include "util/log.hpp"
 
@@ -34,9 +35,16 @@ frontend::LandmarkModel modelFromMessage(const vslam::landmark_t& l, int64_t id)
   return model;
 }
 
-// "" if the message's landmark can go into the index, else why not.
-std::string checkLandmark(const vslam::landmark_t& l) {
+double msSince(Utime start) { return 1e-3 * static_cast<double>(monotonicUtime() - start); }
+
+}  // namespace
+
+std::string checkLandmarkMessage(const vslam::landmark_t& l) {
   if (l.num_points <= 0 || l.descriptor_size != 128) return "without SIFT points";
+  if (l.num_points > landmark_db::kMaxLandmarkPoints) {
+    return "with " + std::to_string(l.num_points) + " points (at most " +
+           std::to_string(landmark_db::kMaxLandmarkPoints) + ")";
+  }
   for (const auto& p : l.points) {
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
       return "with non-finite points";
@@ -44,10 +52,6 @@ std::string checkLandmark(const vslam::landmark_t& l) {
   }
   return "";
 }
-
-double msSince(Utime start) { return 1e-3 * static_cast<double>(monotonicUtime() - start); }
-
-}  // namespace
 
 FrontendParams FrontendParams::load(const config::ConfigNode& node,
                                     const config::RobotConfig& robot) {
@@ -167,7 +171,7 @@ void FrontendStage::onImage(const vslam::image_t& msg) {
 void FrontendStage::onProposal(const vslam::landmark_update_t& m) {
   const vslam::landmark_t& l = m.landmark;
   if (m.op != vslam::landmark_update_t::OP_PROPOSED || l.camera == params_.camera.name) return;
-  const std::string why = checkLandmark(l);
+  const std::string why = checkLandmarkMessage(l);
   if (!why.empty()) {
     ctx_->bus.reportMalformed(params_.proposal_channel,
                               "landmark " + std::to_string(l.landmark_id) + " " + why);
@@ -180,7 +184,7 @@ void FrontendStage::onProposal(const vslam::landmark_update_t& m) {
 }
 
 void FrontendStage::addToReplica(const vslam::landmark_t& l, const std::string& channel) {
-  const std::string why = checkLandmark(l);
+  const std::string why = checkLandmarkMessage(l);
   if (l.landmark_id <= 0 || !why.empty()) {
     ctx_->bus.reportMalformed(channel, "landmark " + std::to_string(l.landmark_id) + " " +
                                            (why.empty() ? "without a global id" : why));

@@ -68,6 +68,11 @@ struct FrontendParams {
   static FrontendParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
 
+// Why a landmark from another front-end or the DB may not enter this
+// front-end's replica ("" if it may): no SIFT points, too many points
+// (landmark_db::kMaxLandmarkPoints), non-finite points.
+std::string checkLandmarkMessage(const vslam::landmark_t& l);
+
 class FrontendStage final : public bus::Stage {
  public:
   explicit FrontendStage(FrontendParams params);

@@ -14,8 +14,10 @@
 
 #include "bus/lockstep_replay.hpp"
 #include "frontend/pose_measurement.hpp"
+#include "landmark_db/landmark_record.hpp"
 #include "sim/simulator.hpp"
 #include "stages/builtin_stages.hpp"
+#include "stages/frontend_stage.hpp"
 #include "stages/landmark_db_stage.hpp"
 #include "support/test_logs.hpp"
 
@@ -70,6 +72,27 @@ fs::path simulateApartment(const config::StackConfig& stack, const fs::path& dir
 }
 
 }  // namespace
+
+TEST(FrontendStage, RefusesLandmarkMessagesItCannotUse) {
+  vslam::landmark_t l{};
+  l.descriptor_size = 128;
+  auto resize = [&](int n) {
+    l.num_points = n;
+    l.points.assign(static_cast<size_t>(n), {0.f, 0.f, 2.f});
+  };
+  resize(30);
+  EXPECT_EQ(stages::checkLandmarkMessage(l), "");
+  resize(landmark_db::kMaxLandmarkPoints);
+  EXPECT_EQ(stages::checkLandmarkMessage(l), "");
+  // Issue 19: a proposal of 100,000 points grew every front-end to 210 MB.
+  resize(landmark_db::kMaxLandmarkPoints + 1);
+  EXPECT_NE(stages::checkLandmarkMessage(l).find("points (at most 2048)"), std::string::npos);
+  resize(0);
+  EXPECT_EQ(stages::checkLandmarkMessage(l), "without SIFT points");
+  resize(30);
+  l.points[7][1] = NAN;
+  EXPECT_EQ(stages::checkLandmarkMessage(l), "with non-finite points");
+}
 
 TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
   const fs::path dir = vslam::test::scratchDir("frontend_stage");

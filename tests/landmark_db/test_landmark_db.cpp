@@ -109,11 +109,26 @@ TEST_F(LandmarkDbTest, InvalidProposalsAreRefusedAndNothingIsStored) {
             ProposalOutcome::kInvalid);
   EXPECT_EQ(db->propose(syntheticInfo("", 1, kT0, {}), syntheticStructure(20, 1)).outcome,
             ProposalOutcome::kInvalid);
+  // Issue 19: a 100,000-point proposal was stored (3.9 MB) and copied into every replica.
+  const auto huge = db->propose(syntheticInfo("forward", 2, kT0, {}),
+                                syntheticStructure(kMaxLandmarkPoints + 1, 1));
+  EXPECT_EQ(huge.outcome, ProposalOutcome::kInvalid);
+  EXPECT_NE(huge.reason.find("more than the 2048"), std::string::npos) << huge.reason;
+
   EXPECT_EQ(
       db->propose(syntheticInfo("forward", 1, kT0, {NAN, 0, 0}), syntheticStructure(20, 1)).outcome,
       ProposalOutcome::kInvalid);
   EXPECT_EQ(db->numStored(), 0u);
   EXPECT_EQ(db->revision(), 0);
+}
+
+TEST_F(LandmarkDbTest, ALandmarkOfTheMostPointsAllowedIsStored) {
+  auto db = openDb(dir_ / "map.vslam-map");
+  EXPECT_EQ(
+      db->propose(syntheticInfo("forward", 1, kT0, {}), syntheticStructure(kMaxLandmarkPoints, 1))
+          .outcome,
+      ProposalOutcome::kCreated);
+  EXPECT_EQ(db->numStored(), 1u);
 }
 
 TEST_F(LandmarkDbTest, LocalizationOnlyMapRefusesNewLandmarks) {
