@@ -73,6 +73,8 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   p.map_prior_unknown_start = start == "unknown";
   p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
   p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
+  p.odometry_timeout_s =
+      node.getDouble("odometry_timeout_s", p.odometry_timeout_s, InRange{0.05, 3600});
 
   if (node.has("prefilter")) {
     const config::ConfigNode pf = node.child("prefilter");
@@ -242,6 +244,7 @@ std::vector<std::string> BackendStage::outputChannels() const {
 
 void BackendStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
+  started_clock_ = ctx.clock.now();  // 0 in a replay before its first event
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
   // Several front-ends publish here; a burst of a frame's measurements from
@@ -277,6 +280,12 @@ void BackendStage::logLimited(LogReason reason, const Args&... args) {
 }
 
 void BackendStage::onOdometry(const vslam::odometry_t& msg) {
+  const Utime now = ctx_->clock.now();
+  const Utime before = last_odometry_clock_.exchange(now);
+  if (odometry_quiet_logged_.exchange(false)) {
+    log::info("odometry back on ", params_.odometry_channel, " after ", toSeconds(now - before),
+              " s without");
+  }
   using Outcome = OdometryIncrements::Outcome;
   const Outcome outcome = backend_.addOdometry({msg.utime, msg.seq, {msg.x, msg.y, msg.theta}});
   switch (outcome) {
@@ -450,6 +459,21 @@ void BackendStage::publishParticles(Utime utime) {
   ctx_->bus.publish(params_.particles_channel, out);
 }
 
+void BackendStage::checkOdometryQuiet(bus::HealthReport& report) {
+  const Utime now = ctx_->clock.now();
+  if (started_clock_ <= 0) started_clock_ = now;
+  const Utime last = last_odometry_clock_.load();
+  const Utime since = last > 0 ? last : started_clock_;
+  const double quiet_s = toSeconds(now - since);
+  report.add("odometry_age_s", quiet_s, "s");
+  if (quiet_s <= params_.odometry_timeout_s) return;
+  const std::string why = (last > 0 ? "no odometry on " : "no odometry yet on ") +
+                          params_.odometry_channel + " for " + std::to_string(quiet_s) +
+                          " s: the pose does not move with the robot";
+  report.warn(why);
+  if (!odometry_quiet_logged_.exchange(true)) log::warn(why);
+}
+
 void BackendStage::collectHealth(bus::HealthReport& report) {
   const backend::BackendCounters& c = backend_.counters();
   for (int s = static_cast<int>(MeasurementStatus::kAccepted); s < backend::kNumMeasurementStatus;
@@ -514,6 +538,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     report.add("graph_solve_ms", c.graph_last_solve_ms, "ms");
   }
   if (e.kidnapped) report.warn("kidnapping suspected: relocalizing from visual measurements");
+  checkOdometryQuiet(report);
   period_updates_ = 0;
   period_update_ms_ = 0;
   period_max_update_ms_ = 0;

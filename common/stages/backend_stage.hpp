@@ -16,6 +16,7 @@
 // once per reason every few seconds; the stage keeps running.
 
 #include <array>
+#include <atomic>
 #include <filesystem>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
@@ -40,7 +41,10 @@ struct BackendStageParams {
   std::string particles_channel;
   double map_rate_hz = 1.0;        // MAP messages per second of robot time; 0: none
   double particles_rate_hz = 2.0;  // PARTICLES messages per second of robot time; 0: none
-  std::string database_id;         // map_t.database_id ("" until a landmark DB names one)
+  // Odometry quieter than this (stage clock) is logged once and raises
+  // health to WARN: the published pose no longer moves with the robot.
+  double odometry_timeout_s = 2.0;
+  std::string database_id;  // map_t.database_id ("" until a landmark DB names one)
   // Localization in a known map: the landmark map file of an earlier run
   // (vslam-landmark-db's map_file), read once at start-up. Its landmarks
   // with a back-end pose (pose source "map") start in every particle's map
@@ -91,6 +95,12 @@ class BackendStage final : public bus::Stage {
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
   Utime next_map_ = 0, next_particles_ = 0;
+  // Odometry watchdog (stage clock): the last reading's arrival, and whether
+  // its silence has been logged.
+  std::atomic<Utime> last_odometry_clock_{0};
+  std::atomic<bool> odometry_quiet_logged_{false};
+  Utime started_clock_ = 0;
+  void checkOdometryQuiet(bus::HealthReport& report);
   log::RateLimitedWarnings<kNumLog> warnings_{5 * kMicrosPerSecond};
   // Period figures for health.
   int64_t period_updates_ = 0;

@@ -513,3 +513,70 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
   }
   fs::remove_all(dir);
 }
+
+// Issue 19: a back-end left without odometry for 12 s logged nothing. Here
+// odometry stops for 6 s of log time while measurements keep the clock
+// going: health reports the silence and warns, and clears when it resumes.
+TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
+  const fs::path dir = vslam::test::scratchDir("backend_stage_odometry_quiet");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  const int64_t t0 = 1767225600LL * kMicrosPerSecond;
+  auto seconds = [&](double s) { return t0 + static_cast<int64_t>(s * 1e6); };
+  {
+    LogWriter log(dir / "in.lcmlog");
+    int64_t seq = 0;
+    auto odometry = [&](double s) {
+      vslam::odometry_t o{};
+      o.utime = seconds(s);
+      o.seq = seq++;
+      o.x = 0.1 * s;
+      log.write(o.utime, "ODOMETRY", o);
+    };
+    for (double s = 0; s < 3.0; s += 0.02) odometry(s);
+    for (double s = 3.0; s < 9.0; s += 0.1) {  // odometry quiet; measurements go on
+      vslam::visual_measurement_t m{};
+      m.utime = seconds(s);
+      m.camera = "forward";
+      m.landmark_id = 1;
+      m.num_points = 25;
+      m.proj_err_rms = 0.5;
+      m.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
+      log.write(m.utime, "VISUAL_MEASUREMENT", m);
+    }
+    for (double s = 9.0; s < 12.0; s += 0.02) odometry(s);
+  }
+  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  options.keep_health = true;
+  bus::LockstepReplay replay(options);
+  replay.addStage("backend", stages::builtinStages().create(stack, "backend", "backend"));
+  replay.run();
+
+  double max_age = 0, last_age = -1;
+  int warned = 0, reports = 0;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel != "HEALTH") continue;
+    const auto h = decode<vslam::health_t>(e);
+    if (h.instance != "backend") continue;
+    for (const auto& m : h.metrics) {
+      if (m.name != "odometry_age_s") continue;
+      ++reports;
+      max_age = std::max(max_age, m.value);
+      last_age = m.value;
+      if (m.value > 2.0) {
+        EXPECT_GE(h.level, vslam::health_t::LEVEL_WARN);
+        EXPECT_NE(h.message.find("no odometry on ODOMETRY"), std::string::npos) << h.message;
+        ++warned;
+      }
+    }
+  }
+  EXPECT_GE(reports, 10);
+  EXPECT_GT(max_age, 4.0);  // 6 s quiet, health once a second
+  EXPECT_LT(max_age, 6.5);
+  EXPECT_GE(warned, 3);
+  EXPECT_GE(last_age, 0.0);
+  EXPECT_LT(last_age, 1.0);  // back to normal once odometry resumes
+  fs::remove_all(dir);
+}
