@@ -159,11 +159,23 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
                          ": not an SQLite database, so not a landmark map (left untouched)");
     }
   }
+  // SQLite creates the -wal and -shm files of a WAL-mode map as it opens it;
+  // an open that fails removes the ones it created, so a refused file is
+  // left as it was found.
+  std::vector<std::string> new_sidecars;
+  for (const char* suffix : {"-wal", "-shm"}) {
+    if (!fileExists(file_ + suffix)) new_sidecars.push_back(file_ + suffix);
+  }
+  auto closeAndClean = [&] {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    std::error_code ec;
+    for (const std::string& f : new_sidecars) std::filesystem::remove(f, ec);
+  };
   const int flags = read_only_ ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
   if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
     const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
-    sqlite3_close(db_);
-    db_ = nullptr;
+    closeAndClean();
     throw MapFileError(file_ + ": cannot open: " + why);
   }
   try {
@@ -186,12 +198,10 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     }
     readMeta();
   } catch (const MapFileError&) {
-    sqlite3_close(db_);
-    db_ = nullptr;
+    closeAndClean();
     throw;
   } catch (const std::exception& e) {
-    sqlite3_close(db_);
-    db_ = nullptr;
+    closeAndClean();
     throw MapFileError(file_ + ": " + e.what());
   }
 }

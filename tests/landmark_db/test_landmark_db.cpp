@@ -175,10 +175,21 @@ TEST_F(LandmarkDbTest, ForeignAndDamagedFilesGiveAClearErrorAndAreLeftUntouched)
     const std::string junk(3000, '\x5a');
     f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
   }
+  // A landmark map cut to half its size (a copy interrupted; issue 19: it
+  // was refused, but new -wal and -shm files were left beside it).
+  const fs::path truncated = dir_ / "truncated.vslam-map";
+  {
+    auto db = openDb(truncated);
+    for (int k = 0; k < 30; ++k) {
+      db->propose(syntheticInfo("forward", k, kT0, {}), syntheticStructure(60, k));
+    }
+  }
+  fs::resize_file(truncated, fs::file_size(truncated) / 2);
   const std::pair<fs::path, std::string> cases[] = {{text, "not an SQLite database"},
                                                     {empty, "empty file"},
                                                     {foreign, "not a vslam landmark map"},
-                                                    {damaged, "damaged"}};
+                                                    {damaged, "damaged"},
+                                                    {truncated, "malformed"}};
   for (const auto& [file, expected] : cases) {
     const std::string before = landmark_db::test::fileBytes(file);
     try {
@@ -191,6 +202,15 @@ TEST_F(LandmarkDbTest, ForeignAndDamagedFilesGiveAClearErrorAndAreLeftUntouched)
     }
     EXPECT_EQ(landmark_db::test::fileBytes(file), before) << file << " was modified";
     EXPECT_FALSE(fs::exists(file.string() + "-wal")) << file;
+    EXPECT_FALSE(fs::exists(file.string() + "-shm")) << file;
+    // And read-only, as vslam-map opens it.
+    StoreOptions read_only;
+    read_only.read_only = true;
+    read_only.create_if_missing = false;
+    EXPECT_THROW(LandmarkStore(file, read_only), MapFileError) << file;
+    EXPECT_EQ(landmark_db::test::fileBytes(file), before) << file << " was modified";
+    EXPECT_FALSE(fs::exists(file.string() + "-wal")) << file << " (read-only)";
+    EXPECT_FALSE(fs::exists(file.string() + "-shm")) << file << " (read-only)";
   }
 }
 
