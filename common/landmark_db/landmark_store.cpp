@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -195,6 +196,13 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     if (!read_only_) {
       exec("PRAGMA journal_mode=WAL");
       exec(options.power_safe ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
+      if (options.max_file_bytes > 0) {
+        Statement ps(db_, "PRAGMA page_size", file_);
+        const int64_t page = ps.step() ? ps.int64(0) : 4096;
+        exec("PRAGMA max_page_count=" +
+             std::to_string(std::max<int64_t>(
+                 1, static_cast<int64_t>(options.max_file_bytes) / std::max<int64_t>(page, 512))));
+      }
     }
     readMeta();
   } catch (const MapFileError&) {

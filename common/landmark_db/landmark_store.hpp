@@ -52,6 +52,9 @@ struct StoreOptions {
   // synchronous=FULL: a commit survives power loss. NORMAL (false) still
   // survives kill -9 of the process (WAL), and is faster.
   bool power_safe = true;
+  // The map file stops growing at this size (0: no limit): a write beyond it
+  // fails as on a full disk (SQLite's max_page_count).
+  uint64_t max_file_bytes = 0;
 };
 
 class LandmarkStore {

@@ -1,5 +1,7 @@
 #include "stages/landmark_db_stage.hpp"
 
+#include <sys/statvfs.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -85,6 +87,8 @@ LandmarkDbParams LandmarkDbParams::load(const config::ConfigNode& node,
   const config::ConfigNode prune = node.child("prune");
   p.prune_enabled = prune.getBool("enabled");
   p.prune_period_s = prune.getDouble("period_s", InRange{1, 1e6});
+  p.max_map_file_mb = node.getDouble("max_map_file_mb", p.max_map_file_mb, InRange{0, 1e7});
+  p.min_free_disk_mb = node.getDouble("min_free_disk_mb", p.min_free_disk_mb, InRange{0, 1e7});
   const auto& ch = robot.channels;
   p.proposal_channel = ch.landmark_proposal;
   p.update_channel = ch.landmark_update;
@@ -119,6 +123,7 @@ void LandmarkDbStage::open(bus::ExecutionMode mode) {
                                        static_cast<uint64_t>(wallUtime()));
   }
   so.now = mode == bus::ExecutionMode::kLive ? wallUtime() : 0;
+  so.max_file_bytes = static_cast<uint64_t>(params_.max_map_file_mb * 1024 * 1024);
   auto store = std::make_unique<landmark_db::LandmarkStore>(name, so);
   db_ = std::make_unique<landmark_db::LandmarkDatabase>(std::move(store), params_.db);
   log::info("landmark map ", name, ": database ", db_->databaseId(), ", revision ", db_->revision(),
@@ -283,10 +288,14 @@ void LandmarkDbStage::onProposal(const landmark_update_t& msg) {
   try {
     r = db_->propose(std::move(info), std::move(st), map_T_odom_);
   } catch (const std::exception& e) {
-    // Not acknowledged: the front-end sends it again.
+    // Nothing changed (the database writes first); the front-end is told, so
+    // it does not wait for an answer or send it again forever (a full disk).
     ++stats_.store_errors;
-    logLimited(kLogStore, "cannot store proposal ", l.proposal_id, " of ", l.camera, ": ",
-               e.what());
+    ++stats_.store_rejected;
+    last_store_error_ = e.what();
+    logLimited(kLogStore, "cannot store proposal ", l.proposal_id, " of ", l.camera, ": ", e.what(),
+               "; rejected");
+    publishReply(landmark_update_t::OP_REJECTED, msg, -1, now);
     return;
   }
   switch (r.outcome) {
@@ -441,6 +450,28 @@ void LandmarkDbStage::stop() {
   }
 }
 
+void LandmarkDbStage::checkDiskSpace(bus::HealthReport& report) {
+  if (params_.map_file.empty()) return;
+  constexpr double kMiB = 1024.0 * 1024.0;
+  struct statvfs fs {};
+  const std::filesystem::path dir =
+      params_.map_file.has_parent_path() ? params_.map_file.parent_path() : ".";
+  if (statvfs(dir.c_str(), &fs) == 0) {
+    const double free_mb =
+        static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize) / kMiB;
+    report.add("disk_free_mb", free_mb, "MiB");
+    if (free_mb < params_.min_free_disk_mb) {
+      report.warn("only " + std::to_string(static_cast<int>(free_mb)) + " MiB free for " +
+                  params_.map_file.string() + ": new landmarks will not be stored");
+    }
+  }
+  if (params_.max_map_file_mb > 0 &&
+      static_cast<double>(db_->store().fileBytes()) >= 0.95 * params_.max_map_file_mb * kMiB) {
+    report.warn("the map file is at its size limit (max_map_file_mb " +
+                std::to_string(params_.max_map_file_mb) + "): new landmarks will not be stored");
+  }
+}
+
 void LandmarkDbStage::collectHealth(bus::HealthReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!db_) return;
@@ -458,6 +489,7 @@ void LandmarkDbStage::collectHealth(bus::HealthReport& report) {
                 s.evicted - last_.evicted,
                 s.loaded - last_.loaded,
                 s.updates - last_.updates,
+                s.store_rejected - last_.store_rejected,
                 s.request_ms - last_.request_ms};
   last_ = stats_;
   int64_t commits = 0;
@@ -486,7 +518,12 @@ void LandmarkDbStage::collectHealth(bus::HealthReport& report) {
   report.add("request_ms", d.requests > 0 ? d.request_ms / static_cast<double>(d.requests) : 0,
              "ms");
   report.add("measurements_unknown_landmark", static_cast<double>(d.unknown_ids), "count");
-  if (d.store_errors > 0) report.fail("map file writes failed; proposals are not acknowledged");
+  report.add("proposals_store_failed", static_cast<double>(d.store_rejected), "count");
+  if (d.store_errors > 0) {
+    report.fail("map file writes failed (" + last_store_error_ +
+                "); new landmarks are rejected, stored ones are kept");
+  }
+  checkDiskSpace(report);
   if (d.unknown_ids > 0) report.warn("measurements of landmarks this database does not have");
 }
 

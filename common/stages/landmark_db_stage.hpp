@@ -41,6 +41,10 @@ struct LandmarkDbParams {
   double flush_period_s = 1.0;
   bool prune_enabled = true;
   double prune_period_s = 30;
+  double max_map_file_mb = 0;  // the map file stops growing here (0: no limit)
+  // Less free space than this on the map file's filesystem warns in health:
+  // new landmarks will soon not be stored.
+  double min_free_disk_mb = 16;
   std::string proposal_channel, update_channel, summary_channel, request_channel;
   std::string measurement_channel, filtered_channel, map_channel, pose_channel;
 
@@ -72,8 +76,11 @@ class LandmarkDbStage final : public bus::Stage {
     int64_t proposals = 0, created = 0, already_known = 0, refused = 0, invalid = 0;
     int64_t store_errors = 0, unknown_ids = 0, requests = 0, snapshots = 0, pruned = 0;
     int64_t evicted = 0, loaded = 0, updates = 0;
+    int64_t store_rejected = 0;  // proposals rejected because the map file could not be written
     double request_ms = 0;
   };
+  std::string last_store_error_;                   // the newest map file write failure, for health
+  void checkDiskSpace(bus::HealthReport& report);  // mutex_ held
   enum LogReason { kLogProposal, kLogUnknown, kLogStore, kLogRequest, kLogMap, kNumLogReasons };
   template <class... Args>
   void logLimited(LogReason reason, const Args&... args);

@@ -10,12 +10,14 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <vslam/health_t.hpp>
 #include <vslam/landmark_request_t.hpp>
 #include <vslam/landmark_summary_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
+#include "landmark_db/landmark_store.hpp"
 #include "landmark_db_test_util.hpp"
 #include "sim/simulator.hpp"
 #include "stages/builtin_stages.hpp"
@@ -281,5 +283,70 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   runOnce(dir / "run2.lcmlog");
   EXPECT_EQ(vslam::test::readFileBytes(dir / "run1.lcmlog"),
             vslam::test::readFileBytes(dir / "run2.lcmlog"));
+  fs::remove_all(dir);
+}
+
+// Issue 19: on a full disk the proposals got neither OP_CREATED nor
+// OP_REJECTED, so the front-ends were never told. A map file capped at
+// 0.25 MiB fills as a full disk would: every proposal is answered, the ones
+// that no longer fit are rejected, health says why, and every landmark
+// acknowledged as created is still in the file afterwards.
+TEST(LandmarkDbStage, RejectsProposalsItCannotStoreAndKeepsTheOthers) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_stage_full");
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  constexpr int kProposals = 120;
+  {
+    LogWriter log(dir / "in.lcmlog");
+    for (int k = 0; k < kProposals; ++k) {
+      const Utime t = kT0 + k * 100000;
+      log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 100 + k, t, static_cast<uint32_t>(k)));
+    }
+  }
+  auto params = dbParams(stack);
+  params.map_file = dir / "map.vslam-map";
+  params.max_map_file_mb = 0.25;
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  options.keep_health = true;
+  {
+    bus::LockstepReplay replay(options);
+    replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(params));
+    replay.run();
+  }
+  std::set<int64_t> answered, created_ids;
+  int created = 0, rejected = 0;
+  bool failed_health = false;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel == "LANDMARK_UPDATE") {
+      const U u = decode<U>(e);
+      if (u.op == U::OP_CREATED) {
+        ++created;
+        created_ids.insert(u.landmark.landmark_id);
+      }
+      rejected += u.op == U::OP_REJECTED;
+      if (u.op == U::OP_CREATED || u.op == U::OP_REJECTED) answered.insert(u.landmark.proposal_id);
+    }
+    if (e.channel == "HEALTH") {
+      const auto h = decode<vslam::health_t>(e);
+      if (h.level == vslam::health_t::LEVEL_ERROR &&
+          h.message.find("new landmarks are rejected, stored ones are kept") != std::string::npos)
+        failed_health = true;
+    }
+  }
+  EXPECT_EQ(static_cast<int>(answered.size()), kProposals) << "every proposal answered";
+  EXPECT_GT(created, 5);
+  EXPECT_GT(rejected, 5);
+  EXPECT_EQ(created + rejected, kProposals);
+  EXPECT_TRUE(failed_health);
+  // Nothing acknowledged is lost: the file holds exactly the created landmarks.
+  landmark_db::StoreOptions ro;
+  ro.read_only = true;
+  ro.create_if_missing = false;
+  landmark_db::LandmarkStore store(params.map_file, ro);
+  std::set<int64_t> stored;
+  for (const auto& info : store.loadAllInfo()) stored.insert(info.id);
+  EXPECT_EQ(stored, created_ids);
   fs::remove_all(dir);
 }
