@@ -203,8 +203,13 @@ PoseGraphSolveSummary PoseGraph::solve() {
     const double sigma_xy = std::hypot(p.measurement_sigma_xy_m, p.measurement_sigma_xy_per_m * d);
     const double sigma_theta =
         std::hypot(p.measurement_sigma_theta_rad, p.measurement_sigma_theta_rad_per_m * d);
-    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta),
-                             new ceres::HuberLoss(p.robust_sigmas), a.x, b.x);
+    ceres::LossFunction* loss = nullptr;  // owned by the problem
+    if (p.robust_loss == PoseGraphParams::RobustLoss::kCauchy) {
+      loss = new ceres::CauchyLoss(p.robust_sigmas);
+    } else {
+      loss = new ceres::HuberLoss(p.robust_sigmas);
+    }
+    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a.x, b.x);
   }
 
   ceres::Solver::Options options;

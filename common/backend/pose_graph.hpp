@@ -53,8 +53,15 @@ struct PoseGraphParams {
   double measurement_sigma_theta_rad_per_m = 0.8 * M_PI / 180;
   // Measurements farther than this from the creation pose are left out.
   double max_measurement_distance_m = 1.5;
-  // Huber loss threshold of the measurement edges, in standard deviations.
-  double robust_sigmas = 3.0;
+  // Robust loss of the measurement edges and its scale, in standard
+  // deviations. Huber's influence never falls: one badly built landmark, whose
+  // measurements near its creation pose are consistent with each other but
+  // wrong by tens of centimetres, bent a generated home's graph by 1.1 m and
+  // 20 deg in one solve (0.09 -> 0.68 m ATE, three false kidnap detections).
+  // Cauchy's influence falls beyond the scale, so such edges lose weight.
+  enum class RobustLoss { kHuber, kCauchy };
+  RobustLoss robust_loss = RobustLoss::kCauchy;
+  double robust_sigmas = 8.0;
   int max_iterations = 20;
   // Prior of the first node of a segment other than the first.
   double segment_prior_sigma_xy_m = 0.5;

@@ -169,7 +169,13 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
         degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m", 0.8, InRange{0, 90}));
     g.max_measurement_distance_m =
         mc.getDouble("max_measurement_distance_m", 1.5, InRange{1e-3, 100});
-    g.robust_sigmas = mc.getDouble("robust_sigmas", 3.0, InRange{0.1, 100});
+    // The defaults of the robust loss are the struct's (backend/pose_graph.hpp).
+    if (mc.has("robust_loss")) {
+      g.robust_loss = mc.getEnum("robust_loss", {"huber", "cauchy"}) == "huber"
+                          ? backend::PoseGraphParams::RobustLoss::kHuber
+                          : backend::PoseGraphParams::RobustLoss::kCauchy;
+    }
+    g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
     g.max_iterations = static_cast<int>(mc.getInt("max_iterations", 20, InRange{1, 1000}));
     g.segment_prior_sigma_xy_m = mc.getDouble("segment_prior_sigma_xy_m", 0.5, InRange{1e-3, 100});
     g.segment_prior_sigma_theta_rad =

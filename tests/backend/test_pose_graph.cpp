@@ -136,13 +136,17 @@ TEST(PoseGraph, AfterAnOdometryBreakOnlyMeasurementsTieTheNewSegment) {
   EXPECT_THROW(graph.breakOdometry(1000), std::invalid_argument);
 }
 
-TEST(PoseGraph, TheHuberLossKeepsOneWrongMeasurementFromBendingThePath) {
-  // A landmark measured consistently from six poses, one of them 0.8 m off
-  // (an aliased recognition): with the Huber loss the path moves by a couple
-  // of centimetres, with a quadratic loss (a huge threshold) by decimetres.
-  auto worstShift = [](double robust_sigmas) {
+TEST(PoseGraph, ARobustLossKeepsWrongMeasurementsFromBendingThePath) {
+  // A landmark measured consistently from six poses, `wrong` of them `off`
+  // metres off (aliased recognitions, a badly built landmark): with a robust
+  // loss the path moves by centimetres, with a quadratic loss (a huge
+  // threshold) by decimetres.
+  using Loss = PoseGraphParams::RobustLoss;
+  auto worstShift = [](Loss loss, double robust_sigmas, int wrong = 1, double off = 0.8) {
     PoseGraphParams p = syntheticGraphParams();
+    p.robust_loss = loss;
     p.robust_sigmas = robust_sigmas;
+    p.max_measurement_distance_m = 3.0;
     PoseGraph graph(p);
     graph.addNode(0, {Pose2{}, 0, 0}, Pose2{});
     graph.addLandmark(1, graph.addNode(1000000, {Pose2{0.3, 0, 0}, 0.3, 0}, Pose2{}));
@@ -150,7 +154,7 @@ TEST(PoseGraph, TheHuberLossKeepsOneWrongMeasurementFromBendingThePath) {
     for (int k = 1; k <= 6; ++k) {
       const Pose2 odom{0.3 + 0.2 * k, 0, 0};
       nodes.push_back(graph.addNode(1000000 + 500000 * k, {odom, odom.x, 0}, Pose2{}));
-      const Pose2 y{0.2 * k + (k == 3 ? 0.8 : 0.0), 0, 0};
+      const Pose2 y{0.2 * k + (k >= 3 && k < 3 + wrong ? off : 0.0), 0, 0};
       EXPECT_TRUE(graph.addMeasurement(1, nodes.back(), y));
     }
     EXPECT_TRUE(graph.solve().solved);
@@ -161,8 +165,17 @@ TEST(PoseGraph, TheHuberLossKeepsOneWrongMeasurementFromBendingThePath) {
     }
     return worst;
   };
-  EXPECT_LT(worstShift(3.0), 0.03);
-  EXPECT_GT(worstShift(1e6), 0.10);
+  EXPECT_LT(worstShift(Loss::kHuber, 3.0), 0.03);
+  EXPECT_LT(worstShift(Loss::kCauchy, 8.0), 0.03);  // the default
+  EXPECT_GT(worstShift(Loss::kHuber, 1e6), 0.10);
+  // Far off (0.9 m, 30 sigma), Cauchy's influence has fallen where Huber's
+  // has not: measured 2026-11-25, two wrong: Huber 5.4 cm, Cauchy 3.7 cm;
+  // three wrong: 10.6 cm, 7.7 cm.
+  for (int wrong : {2, 3}) {
+    EXPECT_LT(worstShift(Loss::kCauchy, 8.0, wrong, 0.9),
+              0.8 * worstShift(Loss::kHuber, 3.0, wrong, 0.9))
+        << wrong << " wrong";
+  }
 }
 
 TEST(PoseGraph, RefusesMeasurementsItCannotUse) {
