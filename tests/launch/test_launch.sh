@@ -10,10 +10,14 @@
 #       with "[name] ", and passes --lcm-url on; supervisorctl -c works;
 #   (b) restarts a program with autorestart=true that exits 1, and leaves one
 #       with autorestart=false down;
+#   (e) after `kill -9` of the pid that supervisorctl shows for a program,
+#       respawns it and leaves exactly one instance of it running (no orphan);
 #   (c) on SIGTERM stops the programs with SIGINT one at a time in reverse
 #       priority order, relays their shutdown output, exits 0 in bounded time
 #       and leaves no process or run directory behind;
 #   (d) refuses a profile naming a missing binary, names it, starts nothing;
+#   (g) keeps the lines of programs that write partial lines whole and
+#       newline-terminated;
 # and that config/launch/*.conf are valid profiles (launch --check, with stub
 # binaries).
 # shellcheck disable=SC2015,SC2016 # `a && b || fail` and eval'd '...' are deliberate
@@ -74,6 +78,20 @@ wait_for() {
 has_line() { grep -qxF -- "$1" "$out"; }
 count() { grep -cxF -- "$1" "$TEST_LAUNCH_DIR/starts" 2>/dev/null || true; }
 alive() { kill -0 "$1" 2>/dev/null; }
+# A process that exists and is not a zombie.
+live() {
+  local s
+  s=$(sed -n 's/^State:[[:space:]]*\(.\).*/\1/p' "/proc/$1/status" 2>/dev/null)
+  [ -n "$s" ] && [ "$s" != Z ]
+}
+# How many live processes test_prog.sh recorded for NAME MODE (pids file).
+instances() {
+  local pid n=0
+  while read -r pid; do
+    live "$pid" && tr '\0' ' ' <"/proc/$pid/cmdline" 2>/dev/null | grep -q "test_prog.sh $1 " && n=$((n + 1))
+  done <"$TEST_LAUNCH_DIR/pids"
+  echo "$n"
+}
 
 command -v supervisord >/dev/null || fail "supervisord is not installed (scripts/setup installs it)"
 
@@ -110,6 +128,19 @@ status=$($ctl status once 2>&1 || true)
 grep -Eq '^once +EXITED' <<<"$status" || fail "once should be EXITED: $status"
 pass "(b) crasher restarted ($(count "crasher started") starts), once left down"
 
+# --- (e) kill -9 of the pid supervisorctl shows --------------------------------
+old_pid=$($ctl pid alpha)
+[ "$old_pid" -gt 0 ] 2>/dev/null || fail "'$ctl pid alpha' gave '$old_pid'"
+[ "$(instances alpha)" -eq 1 ] || fail "$(instances alpha) instances of alpha before the kill, expected 1"
+kill -KILL "$old_pid"
+new_pid=""
+respawned() { new_pid=$($ctl pid alpha 2>/dev/null) && [ "$new_pid" -gt 0 ] && [ "$new_pid" != "$old_pid" ] && running alpha; }
+wait_for 15 "alpha to be respawned after kill -9 of pid $old_pid" respawned
+wait_for 5 "one alpha left after the respawn (the killed one's program must die with it)" \
+  eval '[ "$(instances alpha)" -eq 1 ]'
+[ "$(count "alpha started")" -eq 2 ] || fail "alpha was started $(count "alpha started") times, expected 2"
+pass "(e) kill -9 of alpha's pid $old_pid: respawned as $new_pid, one alpha running"
+
 # --- (c) ordered stop on SIGTERM ---------------------------------------------
 alive "$launch_pid" || fail "scripts/launch exited early"
 t0=$SECONDS
@@ -126,7 +157,7 @@ actual=$(cat "$TEST_LAUNCH_DIR/stops" 2>/dev/null || true)
 has_line "[beta] beta bye" && has_line "[alpha] alpha bye" ||
   fail "output printed while stopping was lost or not prefixed"
 while read -r pid; do
-  ! alive "$pid" || fail "program pid $pid still running after scripts/launch exited"
+  ! live "$pid" || fail "program pid $pid still running after scripts/launch exited"
 done <"$TEST_LAUNCH_DIR/pids"
 [ ! -e "$run_dir" ] || fail "run directory $run_dir left behind"
 pass "(c) SIGTERM: beta then alpha stopped with SIGINT, exit 0 after $((SECONDS - t0))s"
@@ -159,6 +190,50 @@ rc=0
 "$LAUNCH" no-such-profile >"$work/none.out" 2>&1 || rc=$?
 [ "$rc" -ne 0 ] && grep -q no-such-profile "$work/none.out" || fail "unknown profile: exit $rc, $(cat "$work/none.out")"
 pass "unknown profile refused"
+
+# --- (g) partial lines stay whole ----------------------------------------------
+# p1 and p2 each hold a partial line for 0.3 s while the other writes, and end
+# with a line that has no newline; calm runs until stopped.
+: >"$TEST_LAUNCH_DIR/starts"
+: >"$TEST_LAUNCH_DIR/pids"
+: >"$TEST_LAUNCH_DIR/stops"
+{
+  for p in "p1 partial 0" "p2 partial 0.15" "calm serve 0"; do
+    read -r prog mode delay <<<"$p"
+    cat <<CONF
+[program:$prog]
+command=%(ENV_VSLAM_ROOT)s/scripts/lib/prefix-output %(program_name)s
+  %(ENV_VSLAM_ROOT)s/tests/launch/test_prog.sh %(program_name)s $mode $delay
+autorestart=unexpected
+startsecs=0
+stopsignal=INT
+stopasgroup=true
+killasgroup=true
+redirect_stderr=true
+stdout_logfile=/dev/stdout
+stdout_logfile_maxbytes=0
+
+CONF
+  done
+} >"$work/partial.conf"
+out=$work/partial.out
+"$LAUNCH" "$work/partial.conf" --lcm-url "$URL" >"$out" 2>&1 &
+launch_pid=$!
+wait_for 20 "p1 and p2 to exit" eval 'grep -q "exited: p1 " "$out" && grep -q "exited: p2 " "$out"'
+sleep 0.5  # what else would be written after them
+kill -TERM "$launch_pid"
+wait_for 30 "scripts/launch to exit after SIGTERM" eval '! alive "$launch_pid"'
+rc=0
+wait "$launch_pid" || rc=$?
+launch_pid=""
+for p in p1 p2; do
+  for line in "[$p] $p part one" "[$p] $p unterminated"; do
+    has_line "$line" || fail "no line '$line' on its own: $(grep -F "$p " "$out" || true)"
+  done
+done
+[ "$rc" -eq 0 ] || fail "scripts/launch exited with $rc after SIGTERM, expected 0"
+grep -q 'calm stopped' "$TEST_LAUNCH_DIR/stops" || fail "calm was not stopped with SIGINT"
+pass "(g) partial lines of p1 and p2 whole and newline-terminated"
 
 # --- the shipped profiles parse and name only known binaries -------------------
 mkdir -p "$work/bin"

@@ -11,6 +11,9 @@
 #          $TEST_LAUNCH_DIR/stops, sleeps STOP_DELAY seconds, appends
 #          "NAME stopped", prints "NAME bye" and exits 0
 #   crash  exits with status 1 after 0.3 s (exits 0 on SIGINT)
+#   partial  waits STOP_DELAY seconds, prints "NAME part" without a newline,
+#          0.3 s later ends that line with " one", then prints
+#          "NAME unterminated" with no newline at all and exits 0
 set -euo pipefail
 name=$1 mode=$2 delay=${3:-0}
 shift 2; [ $# -gt 0 ] && shift
@@ -42,6 +45,13 @@ case $mode in
     sleep 0.3
     echo "$name crashing"
     exit 1
+    ;;
+  partial)
+    sleep "$delay"
+    printf '%s part' "$name"
+    sleep 0.3
+    printf ' one\n%s unterminated' "$name"
+    exit 0
     ;;
   *) echo "test_prog.sh: unknown mode $mode" >&2; exit 2 ;;
 esac
