@@ -13,11 +13,14 @@
 #   (e) after `kill -9` of the pid that supervisorctl shows for a program,
 #       respawns it and leaves exactly one instance of it running (no orphan);
 #   (c) on SIGTERM stops the programs with SIGINT one at a time in reverse
-#       priority order, relays their shutdown output, exits 0 in bounded time
-#       and leaves no process or run directory behind;
+#       priority order, relays their shutdown output, exits in bounded time,
+#       with status 3 naming the program that failed (once), and leaves no
+#       process or run directory behind;
 #   (d) refuses a profile naming a missing binary, names it, starts nothing;
+#   (f) stops by itself and exits 3 when every program has failed (one
+#       EXITED with an unexpected status, one FATAL), naming both;
 #   (g) keeps the lines of programs that write partial lines whole and
-#       newline-terminated;
+#       newline-terminated, and exits 0 on SIGTERM when nothing failed;
 # and that config/launch/*.conf are valid profiles (launch --check, with stub
 # binaries).
 # shellcheck disable=SC2015,SC2016 # `a && b || fail` and eval'd '...' are deliberate
@@ -149,7 +152,9 @@ wait_for 30 "scripts/launch to exit after SIGTERM" eval '! alive "$launch_pid"'
 rc=0
 wait "$launch_pid" || rc=$?
 launch_pid=""
-[ "$rc" -eq 0 ] || fail "scripts/launch exited with status $rc after SIGTERM, expected 0"
+[ "$rc" -eq 3 ] || fail "scripts/launch exited with status $rc after SIGTERM while once had failed, expected 3"
+grep -q '^\[launch\] failed: once (EXITED' "$out" || fail "the failed program once is not named"
+! grep -Eq '^\[launch\] failed: (alpha|beta|crasher) ' "$out" || fail "a program that had not failed is named as failed"
 expected=$'beta stopping\nbeta stopped\nalpha stopping\nalpha stopped'
 actual=$(cat "$TEST_LAUNCH_DIR/stops" 2>/dev/null || true)
 [ "$actual" = "$expected" ] ||
@@ -160,7 +165,7 @@ while read -r pid; do
   ! live "$pid" || fail "program pid $pid still running after scripts/launch exited"
 done <"$TEST_LAUNCH_DIR/pids"
 [ ! -e "$run_dir" ] || fail "run directory $run_dir left behind"
-pass "(c) SIGTERM: beta then alpha stopped with SIGINT, exit 0 after $((SECONDS - t0))s"
+pass "(c) SIGTERM: beta then alpha stopped with SIGINT, exit 3 (once failed) after $((SECONDS - t0))s"
 
 # --- (d) missing binary --------------------------------------------------------
 : >"$TEST_LAUNCH_DIR/starts"
@@ -191,7 +196,35 @@ rc=0
 [ "$rc" -ne 0 ] && grep -q no-such-profile "$work/none.out" || fail "unknown profile: exit $rc, $(cat "$work/none.out")"
 pass "unknown profile refused"
 
-# --- (g) partial lines stay whole ----------------------------------------------
+# --- (f) a group whose programs all fail stops by itself, non-zero ------------
+cat >"$work/failing.conf" <<'CONF'
+; Exits 3 at once and is not restarted: EXITED, status not in exitcodes.
+[program:quits]
+command=%(ENV_VSLAM_ROOT)s/scripts/lib/prefix-output %(program_name)s sh -c 'echo quitting; exit 3'
+autorestart=false
+startsecs=0
+redirect_stderr=true
+stdout_logfile=/dev/stdout
+stdout_logfile_maxbytes=0
+
+; Exits 1 before startsecs, with no retry left: FATAL.
+[program:never_up]
+command=%(ENV_VSLAM_ROOT)s/scripts/lib/prefix-output %(program_name)s false
+startsecs=5
+startretries=0
+redirect_stderr=true
+stdout_logfile=/dev/stdout
+stdout_logfile_maxbytes=0
+CONF
+rc=0
+timeout 30 "$LAUNCH" "$work/failing.conf" --lcm-url "$URL" >"$work/failing.out" 2>&1 || rc=$?
+msg=$(cat "$work/failing.out")
+[ "$rc" -eq 3 ] || fail "all programs failed: scripts/launch exited with $rc (124: did not stop by itself), expected 3: $msg"
+grep -q '^\[launch\] failed: quits (EXITED' <<<"$msg" || fail "quits not named as failed: $msg"
+grep -q '^\[launch\] failed: never_up (FATAL' <<<"$msg" || fail "never_up not named as failed: $msg"
+pass "(f) every program failed: stopped by itself, exit 3"
+
+# --- (g) partial lines stay whole; a clean stop exits 0 ------------------------
 # p1 and p2 each hold a partial line for 0.3 s while the other writes, and end
 # with a line that has no newline; calm runs until stopped.
 : >"$TEST_LAUNCH_DIR/starts"
@@ -231,9 +264,9 @@ for p in p1 p2; do
     has_line "$line" || fail "no line '$line' on its own: $(grep -F "$p " "$out" || true)"
   done
 done
-[ "$rc" -eq 0 ] || fail "scripts/launch exited with $rc after SIGTERM, expected 0"
+[ "$rc" -eq 0 ] || fail "clean stop (nothing failed): scripts/launch exited with $rc, expected 0"
 grep -q 'calm stopped' "$TEST_LAUNCH_DIR/stops" || fail "calm was not stopped with SIGINT"
-pass "(g) partial lines of p1 and p2 whole and newline-terminated"
+pass "(g) partial lines of p1 and p2 whole and newline-terminated; clean stop: exit 0"
 
 # --- the shipped profiles parse and name only known binaries -------------------
 mkdir -p "$work/bin"
