@@ -5,7 +5,8 @@
 # pass. Damaged copies of the log must each fail with a message naming the
 # problem and where it is: an unknown fingerprint, a file cut inside a payload
 # and inside a header, a garbled stretch over a sync word, a payload that does
-# not decode, and a payload with bytes left over.
+# not decode, a payload with bytes left over, and issue 19's landmark request
+# claiming 500,000,000 ids (which must fail fast, not take gigabytes).
 set -euo pipefail
 writer=$1 root=$2 build=$3
 tmp=$(mktemp -d)
@@ -88,6 +89,18 @@ i = first('SPY_ODOMETRY_T')
 write('left_over', rewrite(lambda j, p: p + b'\0\0\0\0' if j == i else p),
       f'event #{i + 1} (eventnum {events[i][1]}, byte {events[i][0]}) on SPY_ODOMETRY_T: '
       f'payload of {len(events[i][3]) + 4} bytes decodes as vslam.odometry_t with 4 bytes left over')
+
+# Issue 19's request: num_ids = 500,000,000 and no ids after it.
+def hostile(p):
+    at = 16                                          # fingerprint, utime
+    for _ in range(2):                               # requester, database_id
+        at += 4 + struct.unpack('>i', p[at:at + 4])[0]
+    at += 8                                          # since_revision
+    return p[:at] + struct.pack('>i', 500000000)
+i = first('SPY_LANDMARK_REQUEST_T')
+write('hostile_count', rewrite(lambda j, p: hostile(p) if j == i else p),
+      f'event #{i + 1} (eventnum {events[i][1]}, byte {events[i][0]}) on SPY_LANDMARK_REQUEST_T: '
+      f'payload of {len(hostile(events[i][3]))} bytes does not decode as vslam.landmark_request_t')
 PY
 
 if ! spy_check "$tmp/selftest.lcmlog" > "$tmp/selftest.txt" 2>&1; then
@@ -101,7 +114,7 @@ if grep -q '^LCM_SELF_TEST ' "$tmp/selftest.txt"; then
   exit 1
 fi
 
-for damage in unknown cut_payload cut_header garbled undecodable left_over; do
+for damage in unknown cut_payload cut_header garbled undecodable left_over hostile_count; do
   if spy_check "$tmp/$damage.lcmlog" > "$tmp/$damage.txt" 2>&1; then
     echo "FAIL: $damage log passed the check" >&2
     cat "$tmp/$damage.txt" >&2
