@@ -62,6 +62,18 @@ Msg decode(const vslam::test::RecordedEvent& e) {
   return m;
 }
 
+// The stack's backend stage in lock-step over dir/in.lcmlog into
+// dir/out.lcmlog, health messages kept.
+bus::ReplayStats replayBackend(const config::StackConfig& stack, const fs::path& dir) {
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  options.keep_health = true;
+  bus::LockstepReplay replay(options);
+  replay.addStage("backend", stages::builtinStages().create(stack, "backend", "backend"));
+  return replay.run();
+}
+
 }  // namespace
 
 TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
@@ -184,13 +196,7 @@ TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
   }
 
   const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
-  bus::ReplayOptions options;
-  options.input = dir / "in.lcmlog";
-  options.output = dir / "out.lcmlog";
-  options.keep_health = true;
-  bus::LockstepReplay replay(options);
-  replay.addStage("backend", stages::builtinStages().create(stack, "backend", "backend"));
-  const bus::ReplayStats stats = replay.run();
+  const bus::ReplayStats stats = replayBackend(stack, dir);
   EXPECT_FALSE(stats.input_truncated);
 
   std::vector<vslam::pose_estimate_t> poses;
@@ -545,14 +551,7 @@ TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
     }
     for (double s = 9.0; s < 12.0; s += 0.02) odometry(s);
   }
-  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
-  bus::ReplayOptions options;
-  options.input = dir / "in.lcmlog";
-  options.output = dir / "out.lcmlog";
-  options.keep_health = true;
-  bus::LockstepReplay replay(options);
-  replay.addStage("backend", stages::builtinStages().create(stack, "backend", "backend"));
-  replay.run();
+  replayBackend(config::StackConfig::loadFile(source / "config/vslam.yaml"), dir);
 
   double max_age = 0, last_age = -1;
   int warned = 0, reports = 0;
