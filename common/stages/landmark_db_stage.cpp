@@ -366,6 +366,7 @@ void LandmarkDbStage::onPose(const vslam::pose_estimate_t& msg) {
     publish(db_->updateActiveSet(), ctx_->clock.now());
   } catch (const std::exception& e) {
     ++stats_.store_errors;
+    last_store_error_ = e.what();
     logLimited(kLogStore, "segmentation: ", e.what());
   }
 }
@@ -432,6 +433,7 @@ void LandmarkDbStage::onTimer(Utime now) {
     }
   } catch (const std::exception& e) {
     ++stats_.store_errors;
+    last_store_error_ = e.what();
     logLimited(kLogStore, "cannot write the map: ", e.what());
   }
   if (now >= next_summary_) {
