@@ -77,6 +77,86 @@ std::string jsonNumber(double v) {
   return os.str();
 }
 
+// Carries and kidnappings: where consecutive ground-truth poses are farther
+// apart than options.carry_step_m; a restart: the first step already has a
+// revisit hypothesis (a loaded map). For each, the steps from the first at
+// a place mapped before it to the first whose most believed hypothesis is a
+// correct revisit of a state made before it.
+template <typename NearestState>
+std::vector<AppearanceKidnap> findKidnaps(const std::vector<vslam::appearance_hypotheses_t>& steps,
+                                          const std::vector<TruePose>& truth,
+                                          const std::map<int64_t, int64_t>& state_utime,
+                                          const std::vector<AppearanceStepRow>& rows,
+                                          const AppearanceEvalOptions& options,
+                                          NearestState nearest_state) {
+  std::vector<std::pair<int64_t, AppearanceKidnap::Kind>> events;
+  const auto& first = steps.front();
+  if (std::any_of(first.hypotheses.begin(), first.hypotheses.end(),
+                  [](const auto& h) { return !h.is_new_state; })) {
+    events.emplace_back(first.utime, AppearanceKidnap::Kind::kRestart);
+  }
+  for (size_t i = 1; i < truth.size(); ++i) {
+    const double jump = std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y);
+    if (jump > options.carry_step_m && truth[i].utime > first.utime) {
+      events.emplace_back(truth[i].utime, AppearanceKidnap::Kind::kCarry);
+    }
+  }
+  std::vector<AppearanceKidnap> out;
+  for (size_t e = 0; e < events.size(); ++e) {
+    const int64_t at = events[e].first;
+    const int64_t until =
+        e + 1 < events.size() ? events[e + 1].first : std::numeric_limits<int64_t>::max();
+    AppearanceKidnap k;
+    k.kind = events[e].second;
+    bool any_step = false;
+    for (size_t i = 0; i < steps.size(); ++i) {
+      const auto& s = steps[i];
+      if (s.utime < at || s.utime >= until) continue;
+      if (!any_step) {
+        any_step = true;
+        k.step = s.step;
+        k.t = 1e-6 * static_cast<double>(s.utime - first.utime);
+      }
+      if (k.first_mapped_step < 0 && nearest_state(s.utime, at) < options.revisit_radius_m) {
+        k.first_mapped_step = s.step;
+      }
+      if (k.first_correct_step < 0 && rows[i].best_correct) {
+        const auto made = state_utime.find(s.best_state_id);
+        if (made != state_utime.end() && made->second < at) k.first_correct_step = s.step;
+      }
+    }
+    if (!any_step) continue;  // the log ends before another step
+    if (k.first_correct_step >= 0) {
+      k.status = AppearanceKidnap::Status::kRelocalized;
+      const int64_t from = k.first_mapped_step >= 0 ? k.first_mapped_step : k.first_correct_step;
+      k.steps_to_relocalize = std::max<int64_t>(0, k.first_correct_step - from);
+    } else {
+      k.status = k.first_mapped_step >= 0 ? AppearanceKidnap::Status::kNotRelocalized
+                                          : AppearanceKidnap::Status::kNoMappedPlaceReached;
+    }
+    out.push_back(k);
+  }
+  return out;
+}
+
+const char* kindName(AppearanceKidnap::Kind kind) {
+  return kind == AppearanceKidnap::Kind::kRestart ? "restart" : "carry";
+}
+
+const char* statusName(AppearanceKidnap::Status status) {
+  switch (status) {
+    case AppearanceKidnap::Status::kRelocalized:
+      return "relocalized";
+    case AppearanceKidnap::Status::kNotRelocalized:
+      return "not relocalized";
+    case AppearanceKidnap::Status::kNoMappedPlaceReached:
+      break;
+  }
+  return "no mapped place reached";
+}
+
+std::string jsonStep(int64_t step) { return step < 0 ? "null" : std::to_string(step); }
+
 }  // namespace
 
 double AppearanceHypothesisError::position() const { return std::hypot(ex, ey); }
@@ -151,12 +231,14 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     TruePose p;
     if (truthAt(truth, utime, &p)) state_truth.emplace_back(utime, p);
   }
-  auto nearestState = [&](int64_t utime) {
+  // The robot's true distance at `utime` to the nearest state made before
+  // `made_before` and facing within 45 degrees of it; NaN if none.
+  auto nearestState = [&](int64_t utime, int64_t made_before) {
     TruePose now;
     if (!truthAt(truth, utime, &now)) return kNaN;
     double best = kNaN;
     for (const auto& [t, p] : state_truth) {
-      if (t >= utime || std::abs(wrapAngle(p.theta - now.theta)) > M_PI / 4) continue;
+      if (t >= made_before || std::abs(wrapAngle(p.theta - now.theta)) > M_PI / 4) continue;
       const double d = std::hypot(p.x - now.x, p.y - now.y);
       if (!(d >= best)) best = d;
     }
@@ -166,6 +248,7 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
   std::vector<double> pos, heading, best_pos, step_seconds, nearest;
   int64_t within = 0;
   double hyp_sum = 0;
+  int64_t previous_utime = std::numeric_limits<int64_t>::min();
   for (const auto& s : steps) {
     AppearanceStepRow row;
     row.step = s.step;
@@ -194,7 +277,18 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
       if (h.state_id == s.best_state_id && i == 0) row.best_position_error = e.position();
     }
     row.best_is_revisit = !s.hypotheses.empty() && !s.hypotheses.front().is_new_state;
-    row.nearest_state_distance = nearestState(s.utime);
+    row.nearest_state_distance = nearestState(s.utime, s.utime);
+    // The state of the step before is where the robot just came from, not a
+    // place it came back to.
+    row.at_mapped_place = nearestState(s.utime, previous_utime) < options.revisit_radius_m;
+    previous_utime = s.utime;
+    if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
+      row.best_correct = row.best_position_error < options.action_length_m;
+      row.best_wrong = !row.best_correct;
+    }
+    r.revisit_steps += row.at_mapped_place;
+    r.revisit_steps_recognized += row.at_mapped_place && row.best_correct;
+    r.wrong_revisit_steps += row.best_wrong;
     if (!step_pos.empty() && std::isfinite(row.nearest_state_distance)) {
       for (size_t k = 0; k < step_pos.size(); ++k) nearest.push_back(row.nearest_state_distance);
     }
@@ -237,7 +331,10 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
       rl.position_error = rl.heading_error = kNaN;
     }
     r.relocalizations.push_back(rl);
+    r.relocalizations_correct += rl.correct;
+    r.relocalizations_wrong += std::isfinite(rl.position_error) && !rl.correct;
   }
+  r.kidnaps = findKidnaps(steps, truth, state_utime, r.steps, options, nearestState);
   return r;
 }
 
@@ -268,7 +365,25 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
       << fmt(r.mean_best_position_error) << " m\n"
       << "  step time             mean " << fmt(1e3 * r.mean_step_seconds, 2) << " ms, max "
       << fmt(1e3 * r.max_step_seconds, 2) << " ms (as the process measured it)\n"
-      << "  re-localizations      " << r.relocalizations.size() << "\n";
+      << "  recognized revisits   " << r.revisit_steps_recognized << " of the " << r.revisit_steps
+      << " steps at a mapped place (within " << fmt(r.options.revisit_radius_m, 2)
+      << " m of a state made before)\n"
+      << "  wrong beliefs         " << r.wrong_revisit_steps
+      << " steps whose most believed hypothesis is a revisit " << fmt(r.options.action_length_m, 2)
+      << " m or more from the robot\n";
+  for (const auto& k : r.kidnaps) {
+    out << "  " << std::left << std::setw(22) << kindName(k.kind) << std::right << "before step "
+        << k.step << " (t " << fmt(k.t, 1) << " s): " << statusName(k.status);
+    if (k.status == AppearanceKidnap::Status::kRelocalized) {
+      out << " at step " << k.first_correct_step << ", " << k.steps_to_relocalize
+          << " steps after reaching a mapped place";
+    } else if (k.status == AppearanceKidnap::Status::kNotRelocalized) {
+      out << " (a mapped place reached at step " << k.first_mapped_step << ")";
+    }
+    out << "\n";
+  }
+  out << "  re-localizations      " << r.relocalizations.size() << " (" << r.relocalizations_correct
+      << " correct, " << r.relocalizations_wrong << " wrong)\n";
   for (const auto& rl : r.relocalizations) {
     out << "    step " << std::setw(4) << rl.step << "  t " << std::setw(7) << fmt(rl.t, 1)
         << " s  -> state " << std::setw(5) << rl.state_id << " (from " << rl.previous_state_id
@@ -300,6 +415,21 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
      << "  \"mean_nearest_state_distance_m\": " << jsonNumber(r.mean_nearest_state_distance)
      << ",\n"
      << "  \"mean_step_seconds\": " << jsonNumber(r.mean_step_seconds) << ",\n"
+     << "  \"revisit_steps\": " << r.revisit_steps << ",\n"
+     << "  \"revisit_steps_recognized\": " << r.revisit_steps_recognized << ",\n"
+     << "  \"wrong_revisit_steps\": " << r.wrong_revisit_steps << ",\n"
+     << "  \"relocalizations_correct\": " << r.relocalizations_correct << ",\n"
+     << "  \"relocalizations_wrong\": " << r.relocalizations_wrong << ",\n"
+     << "  \"kidnaps\": [";
+  for (size_t i = 0; i < r.kidnaps.size(); ++i) {
+    const auto& k = r.kidnaps[i];
+    os << (i ? "," : "") << "\n    {\"kind\": \"" << kindName(k.kind) << "\", \"step\": " << k.step
+       << ", \"t\": " << jsonNumber(k.t) << ", \"status\": \"" << statusName(k.status)
+       << "\", \"first_mapped_step\": " << jsonStep(k.first_mapped_step)
+       << ", \"first_correct_step\": " << jsonStep(k.first_correct_step)
+       << ", \"steps_to_relocalize\": " << jsonStep(k.steps_to_relocalize) << "}";
+  }
+  os << (r.kidnaps.empty() ? "" : "\n  ") << "],\n"
      << "  \"relocalizations\": [";
   for (size_t i = 0; i < r.relocalizations.size(); ++i) {
     const auto& rl = r.relocalizations[i];
@@ -377,6 +507,8 @@ void printAppearanceUsage(std::ostream& os) {
         "  --map-channel CH         vslam.appearance_map_t (default APPEARANCE_MAP)\n"
         "  --ref-channel CH         vslam.ground_truth_pose_t (default GROUND_TRUTH)\n"
         "  --action-length M        a re-localization is correct within M metres (default 1)\n"
+        "  --revisit-radius M       the robot is at a mapped place within M metres of a\n"
+        "                           state made before (default 0.5)\n"
         "  --plot-dir DIR           write hypotheses.png, error_x.png, error_y.png,\n"
         "                           error_heading.png\n"
         "  --plot-size WxH          plot size in pixels (default 1000x800)\n"
@@ -400,6 +532,8 @@ int runAppearanceEval(const std::vector<std::string>& args, std::ostream& out) {
       options.ref_channel = cur.value(opt);
     } else if (opt == "--action-length") {
       options.action_length_m = cli::parsePositive(opt, cur.value(opt));
+    } else if (opt == "--revisit-radius") {
+      options.revisit_radius_m = cli::parsePositive(opt, cur.value(opt));
     } else if (opt == "--plot-dir") {
       plot_dir = cur.value(opt);
     } else if (opt == "--plot-size") {

@@ -9,7 +9,14 @@
 //     as the paper does): the true pose where that state's snapshot was
 //     taken minus the robot's true pose now (Figs. 9-11);
 //   - each re-localisation event, with the true distance between the robot
-//     and the state it re-localised to (correct if below one action length).
+//     and the state it re-localised to (correct if below one action length);
+//   - recognition: of the steps at which the robot truly is at a mapped place
+//     (near a state made earlier), those whose most believed hypothesis is a
+//     revisit of a state near the robot; and the steps at which it is a
+//     revisit of a state far from it (a committed wrong belief);
+//   - carries and kidnappings (a jump in the ground truth) and restarts in a
+//     loaded map: the steps from reaching a place mapped before the event to
+//     the first step whose most believed hypothesis is correctly back in it.
 // A state's snapshot time is that of the step whose new-state hypothesis
 // named it (or the map message's, for states of a loaded map).
 
@@ -28,6 +35,10 @@ struct AppearanceEvalOptions {
   std::string map_channel = "APPEARANCE_MAP";
   std::string ref_channel = "GROUND_TRUTH";
   double action_length_m = 1.0;  // a re-localisation is correct within this distance
+  // The robot is at a mapped place when a state made before (not at the
+  // step just before) is this close and faces within 45 degrees.
+  double revisit_radius_m = 0.5;
+  double carry_step_m = 0.5;  // a ground-truth step longer than this is a carry or kidnapping
 };
 
 struct AppearanceHypothesisError {
@@ -47,6 +58,24 @@ struct AppearanceStepRow {
   double mean_position_error = 0;     // over revisits; NaN if none
   double best_position_error = 0;     // of the most believed, if a revisit; else NaN
   double nearest_state_distance = 0;  // robot to the nearest earlier state; NaN if none
+  bool at_mapped_place = false;  // a state made before the previous step is within revisit_radius_m
+  bool best_correct = false;     // the most believed is a revisit within action_length_m
+  bool best_wrong = false;       // ... a revisit action_length_m or more away
+};
+
+// A carry or kidnapping (the ground truth jumps), or a restart in a loaded
+// map (the first step already has revisit hypotheses), and how long the
+// process took to be back in the map after it.
+struct AppearanceKidnap {
+  enum class Kind { kCarry, kRestart };
+  enum class Status { kRelocalized, kNotRelocalized, kNoMappedPlaceReached };
+  Kind kind = Kind::kCarry;
+  int64_t step = 0;  // the first step after it
+  double t = 0;      // seconds since the first step
+  Status status = Status::kNoMappedPlaceReached;
+  int64_t first_mapped_step = -1;    // first step at a place mapped before it; -1: none
+  int64_t first_correct_step = -1;   // first step whose best is a correct revisit of such a place
+  int64_t steps_to_relocalize = -1;  // first_correct_step - first_mapped_step, at least 0
 };
 
 struct AppearanceRelocalization {
@@ -66,6 +95,11 @@ struct AppearanceReport {
   std::vector<AppearanceStepRow> steps;
   std::vector<AppearanceHypothesisError> errors;  // every revisit hypothesis of every step
   std::vector<AppearanceRelocalization> relocalizations;
+  int64_t relocalizations_correct = 0, relocalizations_wrong = 0;
+  int64_t revisit_steps = 0;             // steps at a mapped place
+  int64_t revisit_steps_recognized = 0;  // ... whose most believed is a correct revisit
+  int64_t wrong_revisit_steps = 0;       // steps whose most believed is a wrong revisit
+  std::vector<AppearanceKidnap> kidnaps;
   int64_t unknown_states = 0;  // revisit hypotheses whose state has no ground truth
   int64_t states_created = 0;  // distinct new-state ids seen (one per snapshot that had one)
   int64_t map_states = -1;     // states in the last map message; -1 if none
