@@ -58,7 +58,7 @@ Pose2 actionOf(char c) { return c == 'F' ? Pose2{1, 0, 0} : Pose2{0, 0, M_PI / 2
 SlamParams defaultParams() {
   SlamParams p;  // config/vslam.yaml's appearance block
   p.beta = 1.0;
-  p.new_state_chi2 = 0.02;
+  p.new_state_ratio = 0.5;
   p.gate = 11.34;
   p.place_sigma_m = 0.25;
   p.place_sigma_rad = 10 * M_PI / 180;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <string>
 
 namespace vslam::appearance {
 
@@ -12,24 +13,38 @@ int orientationBin(double angle, int bins) {
   return b < 0 ? 0 : b >= bins ? bins - 1 : b;
 }
 
+int histogramLength(const HistogramParams& params) {
+  return params.bins * params.grid_cols * params.grid_rows;
+}
+
 Histogram gradientHistogram(const cv::Mat& gray, const HistogramParams& params) {
   if (gray.type() != CV_8UC1 || gray.rows < 3 || gray.cols < 3) {
     throw std::invalid_argument("gradientHistogram: expected an 8-bit grey image of at least 3x3");
   }
   if (params.bins < 1) throw std::invalid_argument("gradientHistogram: bins must be >= 1");
+  if (params.grid_cols < 1 || params.grid_rows < 1 || params.grid_cols > gray.cols ||
+      params.grid_rows > gray.rows) {
+    throw std::invalid_argument("gradientHistogram: a " + std::to_string(params.grid_cols) + "x" +
+                                std::to_string(params.grid_rows) + " grid does not fit a " +
+                                std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                                " image");
+  }
   cv::Mat gx, gy;
   cv::Sobel(gray, gx, CV_32F, 1, 0, 3);
   cv::Sobel(gray, gy, CV_32F, 0, 1, 3);
-  std::vector<double> counts(static_cast<size_t>(params.bins), 0.0);
+  std::vector<double> counts(static_cast<size_t>(histogramLength(params)), 0.0);
   const float min_sq = static_cast<float>(params.min_magnitude * params.min_magnitude);
   double total = 0;
   for (int r = 1; r < gray.rows - 1; ++r) {
     const float* px = gx.ptr<float>(r);
     const float* py = gy.ptr<float>(r);
+    const int row_cells = r * params.grid_rows / gray.rows * params.grid_cols;
     for (int c = 1; c < gray.cols - 1; ++c) {
       const float x = px[c], y = py[c];
       if (x * x + y * y < min_sq || (x == 0.f && y == 0.f)) continue;
-      counts[static_cast<size_t>(orientationBin(std::atan2(y, x), params.bins))] += 1.0;
+      const int cell = row_cells + c * params.grid_cols / gray.cols;
+      counts[static_cast<size_t>(cell * params.bins +
+                                 orientationBin(std::atan2(y, x), params.bins))] += 1.0;
       total += 1.0;
     }
   }

@@ -22,10 +22,21 @@ using Histogram = std::vector<float>;
 struct HistogramParams {
   int bins = 36;              // k, over [-pi, pi]
   double min_magnitude = 20;  // Sobel magnitude (grey levels) below which a pixel is ignored
+  // A histogram per cell of a grid over the image, concatenated (an addition
+  // to the paper's one histogram per image: where the image's gradients are
+  // counts as well as which way they point). 1 x 1 is the paper's.
+  int grid_cols = 1;
+  int grid_rows = 1;
 };
 
-// gray: CV_8UC1, at least 3x3. Returns `bins` values summing to 1, or all
-// zeros if no pixel passes the magnitude threshold (a blank image).
+// Values in a histogram: bins per cell times cells.
+int histogramLength(const HistogramParams& params);
+
+// gray: CV_8UC1, at least 3x3 and at least one pixel per grid cell. Returns
+// histogramLength(params) values, cell by cell in row-major order, summing to
+// 1 over the whole image (a cell weighs as many pixels as passed the
+// threshold in it), or all zeros if no pixel passes the magnitude threshold
+// (a blank image).
 Histogram gradientHistogram(const cv::Mat& gray, const HistogramParams& params);
 
 // Bin of an orientation in [-pi, pi]: floor((angle + pi) / (2 pi) * bins),

@@ -92,6 +92,26 @@ double AppearanceSlam::distance(const std::vector<Histogram>& a, const std::vect
   return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
 }
 
+double AppearanceSlam::logNew() const {
+  return -params_.beta * std::log(std::max(new_state_chi2_, params_.min_chi2));
+}
+
+void AppearanceSlam::scoreNewState(const Snapshot& z, int64_t new_state) {
+  // No state to compare with (the first snapshot): the score does not matter.
+  new_state_chi2_ = 1.0;
+  std::vector<double> d;
+  d.reserve(states_.size());
+  for (const auto& s : states_) {
+    if (s.id < 0 || s.id == new_state) continue;
+    const double c = distance(z.histograms, s.histograms);
+    if (std::isfinite(c)) d.push_back(c);
+  }
+  if (d.empty()) return;
+  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  new_state_chi2_ = params_.new_state_ratio * *mid;
+}
+
 int64_t AppearanceSlam::addState(const Snapshot& z) {
   if (static_cast<int>(z.histograms.size()) != num_cameras_) {
     throw std::invalid_argument("snapshot has " + std::to_string(z.histograms.size()) +
@@ -121,7 +141,7 @@ double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histog
   if (chi2 < 0) {
     chi2 = distance(z, states_[static_cast<size_t>(state_id)].histograms);
     // Nothing to compare (a camera missing on either side): no evidence either way.
-    if (!std::isfinite(chi2)) chi2 = params_.new_state_chi2;
+    if (!std::isfinite(chi2)) chi2 = new_state_chi2_;
   }
   return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
 }
@@ -176,6 +196,7 @@ void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>
 StepResult AppearanceSlam::initialize(const Snapshot& z) {
   if (initialized()) throw std::logic_error("initialize: already initialized");
   const int64_t id = addState(z);
+  scoreNewState(z, id);
   std::vector<Child> children;
   Link unknown;
   unknown.known = false;
@@ -184,9 +205,7 @@ StepResult AppearanceSlam::initialize(const Snapshot& z) {
     // "At state k of the map": linked from the map path's end by the pose of
     // k in the end's frame, traced through the map (the robot's relation to
     // the map is unknown: every state is equally likely a priori).
-    const double log_new =
-        -params_.beta * std::log(std::max(params_.new_state_chi2, params_.min_chi2));
-    children.front().log_weight = log_new;
+    children.front().log_weight = logNew();
     ++generation_;
     Trace t{Pose2{}, Eigen::Matrix3d::Zero()};
     for (const PathNode* n = loaded_path_.get(); n; n = n->parent.get()) {
@@ -208,25 +227,33 @@ StepResult AppearanceSlam::initialize(const Snapshot& z) {
 }
 
 void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snapshot& z,
-                            int64_t new_state, std::vector<Child>* children, int* candidates) {
+                            int64_t new_state, std::vector<Child>* children, int* candidates,
+                            std::vector<int64_t>* reachable) {
   const double log_belief = std::log(h.belief);
-  const double log_new =
-      -params_.beta * std::log(std::max(params_.new_state_chi2, params_.min_chi2));
-  children->push_back({h.node, new_state, true, action, log_belief + log_new});
+  children->push_back({h.node, new_state, true, action, log_belief + logNew()});
 
   // The path back from the leaf, with the robot's traced pose in the frame of
-  // each visit's state (forward in time from that visit to now).
+  // each visit's state (forward in time from that visit to now) as far as
+  // the links are known: the first `traced` visits. The rest of the path is
+  // kept for finding a revisit's previous visit (a relocalization seed's
+  // link is unknown, but its state's neighbours in the map are known).
   chain_.clear();
   chain_pose_.clear();
   chain_cov_.clear();
   Trace t{action.action, action.covariance};
+  bool tracing = true;
   for (const PathNode* n = h.node.get(); n; n = n->parent.get()) {
     chain_.push_back(n);
+    if (!tracing) continue;
     chain_pose_.push_back(t.pose);
     chain_cov_.push_back(t.covariance);
-    if (!n->parent || !n->link.known) break;
+    if (!n->parent || !n->link.known) {
+      tracing = false;
+      continue;
+    }
     t.prepend(n->link);
   }
+  const size_t traced = chain_pose_.size();
   // Each state's last visit.
   ++generation_;
   candidates_.clear();
@@ -242,8 +269,8 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
       trace_cov_[s] = cov;
     }
   };
-  size_t revisit = chain_.size();  // the most recent revisit on the path
-  for (size_t i = 0; i < chain_.size(); ++i) {
+  size_t revisit = chain_.size();  // the most recent revisit on the traced path
+  for (size_t i = 0; i < traced; ++i) {
     const size_t s = static_cast<size_t>(chain_[i]->state_id);
     if (seen_[s] != generation_) offer(chain_[i]->state_id, chain_pose_[i], chain_cov_[i]);
     if (revisit == chain_.size() && !chain_[i]->is_new) revisit = i;
@@ -286,8 +313,50 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
     const double m2 = v.dot((trace_cov_[s] + place).inverse() * v);
     if (m2 > params_.gate) continue;
     ++*candidates;
+    if (reachable) reachable->push_back(state);
     children->push_back({h.node, state, false, action,
                          log_belief - 0.5 * m2 + observationLog(state, z.histograms)});
+  }
+}
+
+void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
+                                         const std::vector<int64_t>& reachable,
+                                         std::vector<Child>* children) {
+  // The states of h's map, but for those its trace reaches and those of its
+  // last relocalization_recent_visits visits: over a few links the trace is
+  // reliable, and it alone says whether the robot is back (in a corridor the
+  // state a metre back looks like the snapshot, and is not where the robot
+  // is).
+  ++generation_;
+  for (const int64_t s : reachable) seen_[static_cast<size_t>(s)] = generation_;
+  std::vector<std::pair<double, int64_t>> matches;  // (observation log-likelihood, state)
+  const double log_new = logNew();
+  int visits = 0;
+  for (const PathNode* n = h.node.get(); n; n = n->parent.get()) {
+    const size_t s = static_cast<size_t>(n->state_id);
+    const bool recent = visits++ < params_.relocalization_recent_visits;
+    if (seen_[s] == generation_) continue;
+    seen_[s] = generation_;
+    if (recent) continue;
+    const double obs = observationLog(n->state_id, z.histograms);
+    // Only a state that looks more like the snapshot than a new place would.
+    if (obs > log_new) matches.emplace_back(obs, n->state_id);
+  }
+  if (matches.empty()) return;
+  const size_t k = std::min(matches.size(), static_cast<size_t>(params_.relocalization_candidates));
+  std::partial_sort(matches.begin(), matches.begin() + static_cast<std::ptrdiff_t>(k),
+                    matches.end(), [](const auto& a, const auto& b) {
+                      return a.first > b.first || (a.first == b.first && a.second < b.second);
+                    });
+  // The seed's prior is taken from the whole tree (its belief sums to 1),
+  // not from h's share of it: the belief is spread over hypotheses that
+  // differ only in earlier choices, and being put down here does not depend
+  // on those.
+  const double log_prior = std::log(params_.relocalization_prior);
+  Link put_down;
+  put_down.known = false;  // nothing traces across: the robot was carried or restarted
+  for (size_t i = 0; i < k; ++i) {
+    children->push_back({h.node, matches[i].second, false, put_down, log_prior + matches[i].first});
   }
 }
 
@@ -296,14 +365,27 @@ StepResult AppearanceSlam::step(const Pose2& action, const Snapshot& z) {
   if (!action.isFinite()) throw std::invalid_argument("step: non-finite action");
   ++step_;
   const int64_t id = addState(z);
+  scoreNewState(z, id);
   Link link;
   link.action = action;
   link.model = action_model_;
   link.covariance = action_model_.covariance(action);
   std::vector<Child> children;
   int candidates = 0;
-  for (const auto& h : hypotheses_) expand(h, link, z, id, &children, &candidates);
+  std::vector<int64_t> reachable;  // by the most believed hypothesis' trace
+  for (size_t i = 0; i < hypotheses_.size(); ++i) {
+    expand(hypotheses_[i], link, z, id, &children, &candidates, i == 0 ? &reachable : nullptr);
+  }
+  // Seeds only while the most believed hypothesis holds the robot to be
+  // somewhere new, i.e. no mapped place explains its snapshots: a robot that
+  // is following its map needs none.
+  const size_t seeds_from = children.size();
+  if (params_.relocalization_candidates > 0 && params_.relocalization_prior > 0 &&
+      hypotheses_.front().node->is_new) {
+    seedRelocalizations(hypotheses_.front(), z, reachable, &children);
+  }
   StepResult r = select(std::move(children), id);
+  r.relocalization_seeds = static_cast<int>(r.children) - static_cast<int>(seeds_from);
   r.revisit_candidates = candidates;
   return r;
 }

@@ -23,7 +23,12 @@
 //       chi2 the mean over cameras of the chi-square distance of their
 //       gradient-orientation histograms (eq. 4), floored at min_chi2. A new
 //       state cannot be compared with anything; it is scored as if its
-//       distance were new_state_chi2: P(z | new) = 1 / new_state_chi2^beta.
+//       distance were new_state_ratio times the median distance between z
+//       and the stored states: P(z | new) = 1 / (new_state_ratio median)^beta.
+//       (The paper gives no score for it. A fixed distance would mean
+//       different things in a home of plain walls, where every view is far
+//       from every other, and one of repeated wallpaper, where all are close:
+//       the median is this home's "an unrelated place".)
 //     - Update. theta(child) = alpha P(z | x) P(x | p, u) theta(p) (eq. 6),
 //       alpha normalising over every child of every hypothesis.
 //   Children whose belief is below min_belief are pruned (the most believed
@@ -42,6 +47,25 @@
 // path has closed a loop, the state after P would be predicted from the
 // state's own visit a whole lap ago, and a re-localised hypothesis could
 // not follow the map's states step by step.
+//
+// Relocalization seeds (an addition: the paper's tree only traces forward
+// from where a hypothesis believes the robot is, so a robot carried
+// elsewhere, or restarted in a saved map, never re-enters its map). Each
+// step in which the most believed hypothesis p holds the robot to be in a
+// new state (no mapped place explains its snapshot), p also gets a child
+// "put down in state x_k" for the relocalization_candidates states of its
+// map that look most like the snapshot, and more like it than a new place
+// would, but for those p's trace reaches or visited in its last
+// relocalization_recent_visits steps (there the trace decides), with
+//   theta(child) = alpha P(z | x_k) relocalization_prior,
+// the prior taken from the whole tree (whose belief sums to 1) rather than
+// from p's share of it, which is split among hypotheses that differ only in
+// earlier choices; and an unknown link (nothing traces across it). Like the
+// dual particles of a mixture proposal: from the next step the seed is
+// traced through the map from x_k (as through a revisit), so it gains on
+// the others only while the following snapshots keep matching the states
+// around x_k; a wrong seed goes on as new states, at its small weight, and
+// is pruned by min_belief and max_hypotheses.
 //
 // Each hypothesis implies its own map: the states it created (new-state
 // steps) and the links along its path. The map of the most believed
@@ -123,7 +147,7 @@ struct Hypothesis {
 
 struct SlamParams {
   double beta = 1.0;              // eq. 5 exponent
-  double new_state_chi2 = 0.1;    // P(z | new) = new_state_chi2^-beta
+  double new_state_ratio = 0.5;   // P(z | new) = (new_state_ratio median chi2 to the states)^-beta
   double min_chi2 = 1e-4;         // floor of the distance in eq. 5
   double gate = 11.34;            // max Mahalanobis^2 of a revisit (chi2 3 dof, 99 %)
   double place_sigma_m = 0.25;    // extent of a state, metres
@@ -133,6 +157,16 @@ struct SlamParams {
   // Links traced on either side of the state the path last re-visited (see
   // "Tracing through a revisit" above); 0 traces along the path only.
   int revisit_horizon = 10;
+  // Global relocalization (an addition, see "Relocalization seeds" above):
+  // each step, seeds in the relocalization_candidates states that look most
+  // like the snapshot, each with prior relocalization_prior (the probability
+  // that the robot was put down there since the last step). 0 candidates:
+  // the paper's tree only.
+  double relocalization_prior = 0.03;
+  int relocalization_candidates = 2;
+  // No seed in a state the trace reaches or among the path's last this many
+  // visits: there the trace decides.
+  int relocalization_recent_visits = 4;
 };
 
 // A saved map: the states of the most believed hypothesis and its path in
@@ -166,6 +200,7 @@ struct StepResult {
   int pruned_threshold = 0;                // below min_belief
   int pruned_bound = 0;                    // beyond max_hypotheses
   int revisit_candidates = 0;              // reachable (state, hypothesis) pairs evaluated
+  int relocalization_seeds = 0;            // children put down in a look-alike state
   bool lost = false;                       // no finite belief: restarted from a single new state
   const HypothesisInfo& best() const { return hypotheses.front(); }
 };
@@ -213,9 +248,13 @@ class AppearanceSlam {
     double log_weight;
   };
   int64_t addState(const Snapshot& z);
+  void scoreNewState(const Snapshot& z, int64_t new_state);
+  double logNew() const;
   double observationLog(int64_t state_id, const std::vector<Histogram>& z);
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
-              std::vector<Child>* children, int* candidates);
+              std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);
+  void seedRelocalizations(const Hypothesis& h, const Snapshot& z,
+                           const std::vector<int64_t>& reachable, std::vector<Child>* children);
   StepResult select(std::vector<Child> children, int64_t new_state);
 
   SlamParams params_;
@@ -227,6 +266,7 @@ class AppearanceSlam {
   std::shared_ptr<PathNode> loaded_path_;  // end of a loaded map's path, until the first snapshot
   int64_t step_ = 0;
   int64_t next_hypothesis_ = 0;
+  double new_state_chi2_ = 1;  // the distance at which a new state scores, this step
   // Per step: chi-square of the new snapshot against each state (-1: not computed).
   std::vector<double> chi2_cache_;
   // Per hypothesis walk: the generation in which a state was last seen, and

@@ -246,6 +246,7 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
   };
 
   std::vector<double> pos, heading, best_pos, step_seconds, nearest;
+  double weight_sum = 0, weighted_pos_sum = 0, weighted_nearest_sum = 0;
   int64_t within = 0;
   double hyp_sum = 0;
   int64_t previous_utime = std::numeric_limits<int64_t>::min();
@@ -257,6 +258,7 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     row.mean_position_error = kNaN;
     row.best_position_error = kNaN;
     std::vector<double> step_pos;
+    double step_weight = 0, step_weighted_pos = 0;
     for (size_t i = 0; i < s.hypotheses.size(); ++i) {
       const auto& h = s.hypotheses[i];
       if (h.is_new_state) continue;
@@ -271,6 +273,8 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
       }
       r.errors.push_back(e);
       step_pos.push_back(e.position());
+      step_weight += h.belief;
+      step_weighted_pos += h.belief * e.position();
       pos.push_back(e.position());
       heading.push_back(std::abs(e.eheading));
       within += e.position() < options.action_length_m;
@@ -291,6 +295,9 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     r.wrong_revisit_steps += row.best_wrong;
     if (!step_pos.empty() && std::isfinite(row.nearest_state_distance)) {
       for (size_t k = 0; k < step_pos.size(); ++k) nearest.push_back(row.nearest_state_distance);
+      weight_sum += step_weight;
+      weighted_pos_sum += step_weighted_pos;
+      weighted_nearest_sum += step_weight * row.nearest_state_distance;
     }
     row.mean_position_error = mean(step_pos);
     if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
@@ -304,6 +311,8 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
   }
   r.mean_hypotheses = hyp_sum / static_cast<double>(steps.size());
   r.mean_position_error = mean(pos);
+  r.weighted_position_error = weight_sum > 0 ? weighted_pos_sum / weight_sum : kNaN;
+  r.weighted_nearest_state_distance = weight_sum > 0 ? weighted_nearest_sum / weight_sum : kNaN;
   r.median_position_error = median(pos);
   r.max_position_error = pos.empty() ? kNaN : *std::max_element(pos.begin(), pos.end());
   r.mean_abs_heading_error = mean(heading);
@@ -359,6 +368,10 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
       << "  nearest state         " << fmt(r.mean_nearest_state_distance)
       << " m on average: the floor of the position error (the robot's true distance to the\n"
       << "                        nearest earlier state, weighted as the hypotheses above)\n"
+      << "  weighted by belief    position error " << fmt(r.weighted_position_error)
+      << " m, nearest state " << fmt(r.weighted_nearest_state_distance)
+      << " m (what the tree believes;\n"
+      << "                        a relocalization seed weighs little until it is confirmed)\n"
       << "  heading error         mean |e| " << fmt(radToDeg(r.mean_abs_heading_error), 2)
       << " deg\n"
       << "  best is a revisit     " << r.steps_best_revisit << " steps, its mean position error "
@@ -406,6 +419,9 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
      << "  \"max_hypotheses\": " << r.max_hypotheses << ",\n"
      << "  \"revisit_hypotheses\": " << r.errors.size() << ",\n"
      << "  \"mean_position_error_m\": " << jsonNumber(r.mean_position_error) << ",\n"
+     << "  \"weighted_position_error_m\": " << jsonNumber(r.weighted_position_error) << ",\n"
+     << "  \"weighted_nearest_state_distance_m\": " << jsonNumber(r.weighted_nearest_state_distance)
+     << ",\n"
      << "  \"median_position_error_m\": " << jsonNumber(r.median_position_error) << ",\n"
      << "  \"max_position_error_m\": " << jsonNumber(r.max_position_error) << ",\n"
      << "  \"mean_abs_heading_error_rad\": " << jsonNumber(r.mean_abs_heading_error) << ",\n"

@@ -119,6 +119,10 @@ struct AppearanceReport {
   // hypothesis would score. A second lap driven beside the first cannot do
   // better than this.
   double mean_nearest_state_distance = 0;
+  // The same two weighted by each hypothesis' belief: where the tree
+  // believes the robot is (relocalization seeds, many and unconfirmed, weigh
+  // little).
+  double weighted_position_error = 0, weighted_nearest_state_distance = 0;
   double mean_step_seconds = 0, max_step_seconds = 0;  // the process's own timing
 };
 

@@ -35,9 +35,19 @@ AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
 
   p.histogram.bins = static_cast<int>(node.getInt("histogram_bins", config::InRange{2, 1024}));
   p.histogram.min_magnitude = node.getDouble("min_gradient", config::nonNegative());
+  p.histogram.grid_cols =
+      static_cast<int>(node.getInt("histogram_grid_cols", config::InRange{1, 64}));
+  p.histogram.grid_rows =
+      static_cast<int>(node.getInt("histogram_grid_rows", config::InRange{1, 64}));
+  if (appearance::histogramLength(p.histogram) > 4096) {
+    throw node.error("histogram_grid_cols",
+                     "histogram_bins x histogram_grid_cols x histogram_grid_rows is " +
+                         std::to_string(appearance::histogramLength(p.histogram)) +
+                         " values per camera; at most 4096");
+  }
 
   p.slam.beta = node.getDouble("beta", config::positive());
-  p.slam.new_state_chi2 = node.getDouble("new_state_chi2", config::InRange{1e-6, 2});
+  p.slam.new_state_ratio = node.getDouble("new_state_ratio", config::InRange{1e-6, 10});
   p.slam.min_chi2 = node.getDouble("min_chi2", 1e-4, config::InRange{1e-9, 1});
   p.slam.gate = node.getDouble("transition_gate", config::positive());
   p.slam.place_sigma_m = node.getDouble("place_sigma_m", config::positive());
@@ -47,6 +57,11 @@ AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
       static_cast<int>(node.getInt("max_hypotheses", config::InRange{1, 100000}));
   p.slam.revisit_horizon =
       static_cast<int>(node.getInt("revisit_horizon", config::InRange{0, 100000}));
+  p.slam.relocalization_prior = node.getDouble("relocalization_prior", config::InRange{0, 1});
+  p.slam.relocalization_candidates =
+      static_cast<int>(node.getInt("relocalization_candidates", config::InRange{0, 1000}));
+  p.slam.relocalization_recent_visits =
+      static_cast<int>(node.getInt("relocalization_recent_visits", config::InRange{0, 100000}));
 
   p.action_error.relative_translation = node.getDouble("action_error", config::nonNegative());
   p.action_error.relative_rotation = p.action_error.relative_translation;
@@ -68,7 +83,8 @@ AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
 
 AppearanceStage::AppearanceStage(AppearanceParams params)
     : params_(std::move(params)),
-      slam_(params_.slam, static_cast<int>(params_.cameras.size()), params_.histogram.bins),
+      slam_(params_.slam, static_cast<int>(params_.cameras.size()),
+            appearance::histogramLength(params_.histogram)),
       detector_(params_.action) {
   slam_.setActionModel(params_.action_error);
   if (params_.map_load && std::filesystem::exists(params_.map_file)) {

@@ -52,6 +52,49 @@ TEST(GradientHistogram, DiagonalRampAndThreshold) {
   for (float v : h) EXPECT_EQ(v, 0.f);
 }
 
+// A grid of cells, one histogram each. Two 16 x 7 images, each half a ridge
+// (horizontal gradients: orientations 0 and pi) and half a ramp down the
+// rows (orientation pi/2), in opposite halves, with a flat row between.
+// One histogram over the whole image hardly tells them apart; two bands
+// (a 1 x 2 grid) do, as the content of each band differs.
+TEST(GradientHistogram, GridCellsKeepWhereTheGradientsAre) {
+  const auto image = [](bool ridge_on_top) {
+    cv::Mat img(16, 7, CV_8UC1);
+    for (int r = 0; r < 16; ++r) {
+      const bool ridge = (r < 8) == ridge_on_top;
+      const int band_row = r % 8;
+      for (int c = 0; c < 7; ++c) {
+        img.at<uint8_t>(r, c) = static_cast<uint8_t>(band_row == 0 || band_row == 7 ? 0
+                                                     : ridge ? 20 * std::min(c, 6 - c)
+                                                             : 20 * band_row);
+      }
+    }
+    return img;
+  };
+  const HistogramParams one{4, 1.0};
+  const HistogramParams bands{4, 1.0, 1, 2};
+  ASSERT_EQ(histogramLength(bands), 8);
+  const Histogram a = gradientHistogram(image(true), bands);
+  ASSERT_EQ(a.size(), 8u);
+  double sum = 0;
+  for (float v : a) sum += v;
+  EXPECT_NEAR(sum, 1.0, 1e-6) << "normalised over the whole image";
+  // Top band of `a`: the ridge, bins 2 (orientation 0) and 3 (pi); the
+  // bottom band's ramp is all bin 3 (pi/2) but for its flat edges.
+  EXPECT_GT(a[2], 0.f);
+  EXPECT_GT(a[3], 0.f);
+  EXPECT_GT(a[7], a[6]);
+  const double d_one =
+      chiSquare(gradientHistogram(image(true), one), gradientHistogram(image(false), one));
+  const double d_bands = chiSquare(a, gradientHistogram(image(false), bands));
+  EXPECT_LT(d_one, 0.05);
+  EXPECT_GT(d_bands, 10 * d_one);
+  EXPECT_GT(d_bands, 0.5);
+  // A grid finer than the image cannot be made.
+  EXPECT_THROW(gradientHistogram(image(true), {4, 1.0, 8, 1}), std::invalid_argument);
+  EXPECT_THROW(gradientHistogram(image(true), {4, 1.0, 0, 1}), std::invalid_argument);
+}
+
 TEST(GradientHistogram, RejectsBadImages) {
   EXPECT_THROW(gradientHistogram(cv::Mat(2, 5, CV_8UC1, cv::Scalar(0)), {}), std::invalid_argument);
   EXPECT_THROW(gradientHistogram(cv::Mat(5, 5, CV_8UC3, cv::Scalar(0)), {}), std::invalid_argument);

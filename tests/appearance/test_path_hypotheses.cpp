@@ -44,7 +44,9 @@ Pose2 actionOf(char c) { return c == 'F' ? Pose2{1, 0, 0} : Pose2{0, 0, M_PI / 2
 SlamParams params() {
   SlamParams p;
   p.beta = 1.0;
-  p.new_state_chi2 = 0.05;
+  // Distinct places here are chi2 2 apart: a new state scores at 0.05.
+  p.new_state_ratio = 0.025;
+  p.relocalization_candidates = 0;  // the paper's tree; seeds are tested on their own below
   p.min_chi2 = 1e-4;
   p.gate = 11.34;
   p.place_sigma_m = 0.2;
@@ -125,11 +127,13 @@ TEST(PathHypotheses, SplitsOnAliasingAndCollapsesOnADistinctiveView) {
 }
 
 // Equation 6 by hand: one hypothesis at state 0, a small action u = 0.1 m;
-// the children are "new" (weight new_state_chi2^-beta) and "back in state
-// 0": exp(-m^2/2) chi2^-beta with m^2 = r^T (S_u + S_place)^-1 r.
+// the children are "new" (weight (new_state_ratio chi2)^-beta, the median
+// distance to the one stored state being chi2) and "back in state 0":
+// exp(-m^2/2) chi2^-beta with m^2 = r^T (S_u + S_place)^-1 r.
 TEST(PathHypotheses, BeliefsFollowTransitionAndObservationProbabilities) {
   SlamParams p = params();
   p.beta = 2.0;
+  p.new_state_ratio = 0.8;
   AppearanceSlam slam(p, 1, kBins);
   slam.setActionModel(model());
   slam.initialize(snapshotAt(0));
@@ -145,7 +149,7 @@ TEST(PathHypotheses, BeliefsFollowTransitionAndObservationProbabilities) {
   const double var_t = std::pow(0.05 * 0.1, 2) + 0.05 * 0.05 * 0.1 + 0.2 * 0.2;
   const double m2 = 0.1 * 0.1 / var_t;  // only x is off
   const double w_revisit = std::exp(-0.5 * m2) / std::pow(chi2, p.beta);
-  const double w_new = 1.0 / std::pow(p.new_state_chi2, p.beta);
+  const double w_new = 1.0 / std::pow(p.new_state_ratio * chi2, p.beta);
   double revisit = 0, fresh = 0;
   for (const auto& h : r.hypotheses) (h.is_new_state ? fresh : revisit) = h.belief;
   EXPECT_NEAR(revisit, w_revisit / (w_revisit + w_new), 1e-9);
@@ -289,4 +293,159 @@ TEST(MapFile, RoundTripAndRelocalisationInTheLoadedMap) {
   EXPECT_THROW(loadMap(dir / "junk.map"), MapFileError);
   EXPECT_THROW(loadMap(dir / "missing.map"), MapFileError);
   std::filesystem::remove_all(dir);
+}
+
+// Relocalization seeds (global re-localization, an addition to the paper).
+// A 12-place square as above, every place its own look but for the places
+// named in `alike`, each snapshot a noisy view: 10 % of its weight in a bin
+// that depends on the place and the visit, so the right place is chi2 ~0.2
+// away, a look-alike as much, and another place ~1.8.
+namespace {
+
+Snapshot noisyView(int place, int visit, const std::map<int, int>& alike = {}) {
+  const auto it = alike.find(place);
+  const int look = it == alike.end() ? place : it->second;
+  Histogram h(kBins, 0.f);
+  h[static_cast<size_t>(look)] += 0.54f;
+  h[static_cast<size_t>((look + 5) % kBins)] += 0.36f;
+  h[static_cast<size_t>((look + 2 + 3 * visit + place) % kBins)] += 0.1f;
+  Snapshot z;
+  z.histograms = {h};
+  return z;
+}
+
+// Seeds on, with the defaults of SlamParams.
+SlamParams seedingParams() {
+  SlamParams p;
+  p.place_sigma_m = 0.2;
+  return p;
+}
+
+// The first lap from place 0 back to place 0 (visit 0), then `moves` more
+// actions of the lap from `from` (visit 1) with odometry that does not know
+// the robot was carried there; `on_step(step, place, result)` after each.
+template <typename OnStep>
+void lapThenCarried(AppearanceSlam& slam, int from, int moves, const std::map<int, int>& alike,
+                    OnStep on_step) {
+  slam.initialize(noisyView(0, 0, alike));
+  for (int i = 0; i < kPlaces - 1; ++i) {
+    const StepResult r = slam.step(actionOf(kLap[i]), noisyView(i + 1, 0, alike));
+    ASSERT_TRUE(r.best().is_new_state) << "a revisit on the first lap, step " << r.step << " state "
+                                       << r.best().state_id << " belief " << r.best().belief;
+  }
+  // Odometry says the robot went on from place 11 to place 0; it was put
+  // down at `from` instead and drives on from there.
+  int place = from;
+  StepResult r = slam.step(actionOf(kLap[kPlaces - 1]), noisyView(place, 1, alike));
+  on_step(0, place, r);
+  for (int k = 1; k <= moves; ++k) {
+    const char a = kLap[place % kPlaces];
+    place = (place + 1) % kPlaces;
+    r = slam.step(actionOf(a), noisyView(place, 1, alike));
+    on_step(k, place, r);
+  }
+}
+
+}  // namespace
+
+// Carried from the end of the lap to place 6: odometry traces the robot to
+// place 0, where nothing matches; a seed in place 6 follows the map along the
+// places after it and becomes the most believed within a few steps. With
+// seeds off (the paper's tree) the robot never re-enters its map.
+TEST(RelocalizationSeeds, ACarriedRobotRelocalizesIntoItsMap) {
+  for (const int candidates : {2, 0}) {
+    SlamParams p = seedingParams();
+    p.relocalization_candidates = candidates;
+    AppearanceSlam slam(p, 1, kBins);
+    slam.setActionModel(model());
+    int first_correct = -1;
+    // Places 7 to 11 after the carry: the map has their links from place 6.
+    lapThenCarried(slam, 6, 5, {}, [&](int k, int place, const StepResult& r) {
+      const bool correct = !r.best().is_new_state && r.best().state_id == place;
+      if (correct && first_correct < 0) first_correct = k;
+      if (first_correct >= 0) {
+        EXPECT_TRUE(correct) << "lost again " << k << " steps after";
+      }
+      if (!r.best().is_new_state) {
+        EXPECT_EQ(r.best().state_id, place) << "a wrong revisit";
+      }
+    });
+    if (candidates > 0) {
+      EXPECT_GE(first_correct, 0) << "never re-localized";
+      EXPECT_LE(first_correct, 3) << "re-localized late";
+      // At most the carry step's snapshot was added: the map did not grow since.
+      EXPECT_LE(slam.best().node->num_states, kPlaces + 1) << "not back in the map";
+    } else {
+      EXPECT_EQ(first_correct, -1) << "the paper's tree cannot trace across a carry";
+    }
+  }
+}
+
+// Two places look alike (2 and 6). Carried to either at the end of the lap:
+// both are seeded, and the tree commits to neither before the following
+// views tell them apart; then it follows the right one's successors.
+TEST(RelocalizationSeeds, LookAlikePlacesDoNotCommitAWrongRelocalization) {
+  for (const int from : {6, 2}) {
+    AppearanceSlam slam(seedingParams(), 1, kBins);
+    slam.setActionModel(model());
+    const std::map<int, int> alike{{6, 2}};
+    std::set<int64_t> seeded;
+    int first_correct = -1;
+    lapThenCarried(slam, from, 6, alike, [&](int k, int place, const StepResult& r) {
+      for (const auto& h : r.hypotheses)
+        if (!h.is_new_state) seeded.insert(h.state_id);
+      if (!r.best().is_new_state) {
+        EXPECT_EQ(r.best().state_id, place) << "committed to the look-alike, step " << k;
+        if (first_correct < 0) first_correct = k;
+      }
+    });
+    EXPECT_TRUE(seeded.count(2) && seeded.count(6)) << "both look-alikes should be tried";
+    EXPECT_GE(first_correct, 0) << "never re-localized, carried to " << from;
+    EXPECT_LE(first_correct, 4);
+  }
+}
+
+// A restart in a saved map somewhere the map does not cover: the first
+// snapshot matches no state (loadMap's global localization finds nothing),
+// the robot drives two unmapped steps and then into the map, where a seed
+// re-localizes it.
+TEST(RelocalizationSeeds, ARestartInASavedMapRelocalizesWhenItReachesTheMap) {
+  SavedMap saved;
+  {
+    AppearanceSlam slam(seedingParams(), 1, kBins);
+    slam.setActionModel(model());
+    slam.initialize(noisyView(0, 0));
+    for (int i = 0; i < kPlaces - 1; ++i) slam.step(actionOf(kLap[i]), noisyView(i + 1, 0));
+    saved = slam.bestMap({"forward"});
+  }
+  ASSERT_EQ(saved.states.size(), static_cast<size_t>(kPlaces));
+  AppearanceSlam second(seedingParams(), 1, kBins);
+  second.setActionModel(model());
+  second.loadMap(saved, {"forward"});
+  // Two views of a room the map does not have (gradients in every
+  // direction), then the robot drives into the map at place 7 and along it.
+  const auto unknownView = [](int k) {
+    Snapshot z;
+    z.histograms = {Histogram(kBins, 0.8f / kBins)};
+    z.histograms[0][static_cast<size_t>(k)] += 0.2f;
+    return z;
+  };
+  StepResult r = second.initialize(unknownView(0));
+  EXPECT_TRUE(r.best().is_new_state) << "state " << r.best().state_id;
+  r = second.step({1, 0, 0}, unknownView(3));
+  EXPECT_TRUE(r.best().is_new_state) << "state " << r.best().state_id;
+  int place = 7;
+  int first_correct = -1;
+  r = second.step({1, 0, 0}, noisyView(place, 1));
+  for (int k = 0; k < 6; ++k) {
+    if (!r.best().is_new_state) {
+      EXPECT_EQ(r.best().state_id, place) << "a wrong revisit " << k << " steps into the map";
+      if (first_correct < 0) first_correct = k;
+    }
+    const char a = kLap[place];
+    place = (place + 1) % kPlaces;
+    r = second.step(actionOf(a), noisyView(place, 1));
+  }
+  EXPECT_GE(first_correct, 0) << "never re-entered the saved map";
+  EXPECT_LE(first_correct, 3);
 }
