@@ -97,19 +97,27 @@ double AppearanceSlam::logNew() const {
 }
 
 void AppearanceSlam::scoreNewState(const Snapshot& z, int64_t new_state) {
-  // No state to compare with (the first snapshot): the score does not matter.
-  new_state_chi2_ = 1.0;
+  // The snapshot's distance to every stored state, kept as this step's
+  // observations, and their median.
   std::vector<double> d;
   d.reserve(states_.size());
   for (const auto& s : states_) {
     if (s.id < 0 || s.id == new_state) continue;
     const double c = distance(z.histograms, s.histograms);
+    chi2_cache_[static_cast<size_t>(s.id)] = c;
     if (std::isfinite(c)) d.push_back(c);
   }
-  if (d.empty()) return;
-  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
-  std::nth_element(d.begin(), mid, d.end());
-  new_state_chi2_ = params_.new_state_ratio * *mid;
+  // No state to compare with (the first snapshot): the score does not matter.
+  new_state_chi2_ = 1.0;
+  if (!d.empty()) {
+    auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+    std::nth_element(d.begin(), mid, d.end());
+    new_state_chi2_ = params_.new_state_ratio * *mid;
+  }
+  // Nothing to compare (a camera missing on either side): no evidence either way.
+  for (double& c : chi2_cache_) {
+    if (std::isnan(c)) c = new_state_chi2_;
+  }
 }
 
 int64_t AppearanceSlam::addState(const Snapshot& z) {
@@ -138,9 +146,8 @@ int64_t AppearanceSlam::addState(const Snapshot& z) {
 
 double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histogram>& z) {
   double& chi2 = chi2_cache_[static_cast<size_t>(state_id)];
-  if (chi2 < 0) {
+  if (chi2 < 0) {  // not scored by scoreNewState (it scores every stored state)
     chi2 = distance(z, states_[static_cast<size_t>(state_id)].histograms);
-    // Nothing to compare (a camera missing on either side): no evidence either way.
     if (!std::isfinite(chi2)) chi2 = new_state_chi2_;
   }
   return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
