@@ -1,9 +1,8 @@
 // Writes an LCM log with three messages of every vslam type (filled by the
 // transport tests' fill()), one channel per type, for the lcm-spy decode test.
-#include <lcm/lcm-cpp.hpp>
-
 #include <cctype>
 #include <cstdio>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <vector>
 
