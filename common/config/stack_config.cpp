@@ -18,6 +18,9 @@ StackConfig StackConfig::loadFile(const std::filesystem::path& file) {
     root.markUsed("lcm");
   }
   stack.health_period_s = root.getDouble("health_period_s", 1.0, InRange{0.05, 60});
+  // Shared by the front-ends and the back-end, read by them
+  // (stages/prefilter_config.hpp).
+  root.markUsed("prefilter");
   const ConfigNode processes = root.child("processes");
   for (const auto& instance : processes.keys()) {
     if (!processes.child(instance).has("role")) {

@@ -1,7 +1,8 @@
 #pragma once
 // The configuration of a whole stack: one file (config/vslam.yaml) that names
-// the robot file, the LCM URL, health settings and one block per process
-// instance under `processes:`. Each block has a `role` (which program/stage
+// the robot file, the LCM URL, health settings, blocks shared by several
+// stages (`prefilter:`, read by stages/prefilter_config.hpp) and one block
+// per process instance under `processes:`. Each block has a `role` (which program/stage
 // reads it) and that stage's parameters.
 
 #include <filesystem>

@@ -6,6 +6,7 @@
 #include <vslam/pose_estimate_t.hpp>
 
 #include "landmark_db/landmark_store.hpp"
+#include "stages/prefilter_config.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -39,7 +40,8 @@ void copyCovariance(const Eigen::Matrix3d& c, double* out) {
 }  // namespace
 
 BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
-                                            const config::RobotConfig& robot) {
+                                            const config::RobotConfig& robot,
+                                            const backend::PrefilterParams& prefilter) {
   using config::InRange;
   BackendStageParams p;
   backend::BackendParams& b = p.backend;
@@ -76,14 +78,8 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   p.odometry_timeout_s =
       node.getDouble("odometry_timeout_s", p.odometry_timeout_s, InRange{0.05, 3600});
 
-  if (node.has("prefilter")) {
-    const config::ConfigNode pf = node.child("prefilter");
-    b.prefilter.max_proj_err_rms_px = pf.getDouble("max_proj_err_rms_px", 3.0, InRange{1e-3, 1000});
-    b.prefilter.min_num_points =
-        static_cast<int>(pf.getInt("min_num_points", 10, InRange{0, 100000}));
-    b.prefilter.max_slope = pf.getDouble("max_slope", 0.1, InRange{0, 1e9});
-    pf.requireAllKeysUsed();
-  }
+  rejectInstancePrefilter(node);
+  b.prefilter = prefilter;
   if (node.has("mixture")) {
     const config::ConfigNode mx = node.child("mixture");
     backend::MixtureParams& m = f.mixture;
@@ -553,7 +549,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
 void registerBackend(bus::StageRegistry& registry) {
   registry.add("backend", [](const bus::StageSetup& setup) {
     return std::make_unique<BackendStage>(
-        BackendStageParams::load(setup.params, setup.stack.robot));
+        BackendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
   });
 }
 

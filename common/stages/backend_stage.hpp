@@ -58,7 +58,9 @@ struct BackendStageParams {
   // measurements (all dual particles until confirmed).
   bool map_prior_unknown_start = false;
 
-  static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
+  // `prefilter`: the stack's (loadPrefilter in stages/prefilter_config.hpp).
+  static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot,
+                                 const backend::PrefilterParams& prefilter);
 };
 
 class BackendStage final : public bus::Stage {

@@ -9,6 +9,7 @@
 #include "bus/checked_decode.hpp"
 #include "landmark_db/landmark_record.hpp"
 #include "stages/image_gray.hpp"
+#include "stages/prefilter_config.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -54,8 +55,11 @@ std::string checkLandmarkMessage(const vslam::landmark_t& l) {
 }
 
 FrontendParams FrontendParams::load(const config::ConfigNode& node,
-                                    const config::RobotConfig& robot) {
+                                    const config::RobotConfig& robot,
+                                    const frontend::PrefilterParams& prefilter) {
   FrontendParams p;
+  rejectInstancePrefilter(node);
+  p.prefilter = prefilter;
   const std::string camera = node.getString("camera");
   bool found = false;
   for (size_t i = 0; i < robot.cameras.size(); ++i) {
@@ -600,7 +604,8 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
 
 void registerFrontend(bus::StageRegistry& registry) {
   registry.add("frontend", [](const bus::StageSetup& setup) {
-    return std::make_unique<FrontendStage>(FrontendParams::load(setup.params, setup.stack.robot));
+    return std::make_unique<FrontendStage>(
+        FrontendParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
   });
 }
 

@@ -63,9 +63,12 @@ struct FrontendParams {
   frontend::CreationParams creation;
   frontend::RecognitionParams recognition;
   frontend::PoseMeasurementParams measurement;
-  frontend::PrefilterParams prefilter;  // only to decide whether this place needs a landmark
+  frontend::PrefilterParams
+      prefilter;  // the stack's; here to decide whether a place needs a landmark
 
-  static FrontendParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
+  // `prefilter`: the stack's (loadPrefilter in stages/prefilter_config.hpp).
+  static FrontendParams load(const config::ConfigNode& node, const config::RobotConfig& robot,
+                             const frontend::PrefilterParams& prefilter);
 };
 
 // Why a landmark from another front-end or the DB may not enter this

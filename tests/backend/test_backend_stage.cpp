@@ -25,6 +25,8 @@
 #include "landmark_db/landmark_store.hpp"
 #include "stages/backend_stage.hpp"
 #include "stages/builtin_stages.hpp"
+#include "stages/frontend_stage.hpp"
+#include "stages/prefilter_config.hpp"
 #include "support/test_logs.hpp"
 #include "synthetic_world.hpp"
 
@@ -220,7 +222,8 @@ TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
   // The stage is a faithful adapter: the library fed the same events directly
   // (with the parameters the stage read) ends at exactly the same estimate.
   {
-    const auto params = stages::BackendStageParams::load(stack.process("backend"), stack.robot);
+    const auto params = stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                         stages::loadPrefilter(stack));
     backend::Backend direct(params.backend);
     for (const Event& e : events) {
       if (e.odometry) {
@@ -407,6 +410,71 @@ void writePriorMap(const fs::path& map, const std::map<int64_t, Pose2>& poses, i
 
 }  // namespace
 
+// The pre-filter is one block for the stack: what it says reaches the
+// back-end, which filters with it, and each front-end, which decides with it
+// whether a place is covered (before, the front-ends used the built-in
+// region whatever the back-end's block said). A block left inside a process
+// block, or a misspelt key, is an error.
+TEST(StackPrefilter, OneBlockReachesTheBackEndAndEveryFrontEnd) {
+  const fs::path robot = fs::path(VSLAM_SOURCE_DIR) / "config/robot/sim_two_camera.yaml";
+  const fs::path dir = vslam::test::scratchDir("stack_prefilter");
+  const fs::path file = dir / "vslam.yaml";
+  const auto load = [&](const std::string& top, const std::string& in_backend) {
+    std::ofstream(file) << "robot: " << robot.string() << "\n"
+                        << top << R"(processes:
+  frontend_forward:
+    role: frontend
+    camera: forward
+    landmark_db: required
+  backend:
+    role: backend
+    sigma_translation: 0.05
+    sigma_rotation: 0.05
+)" << in_backend;
+    return config::StackConfig::loadFile(file);
+  };
+  {
+    const auto stack = load(
+        "prefilter:\n  max_proj_err_rms_px: 2.5\n  min_num_points: 14\n  max_slope: 0.25\n", "");
+    const backend::PrefilterParams pf = stages::loadPrefilter(stack);
+    EXPECT_EQ(pf.max_proj_err_rms_px, 2.5);
+    EXPECT_EQ(pf.min_num_points, 14);
+    EXPECT_EQ(pf.max_slope, 0.25);
+    const auto back = stages::BackendStageParams::load(stack.process("backend"), stack.robot, pf);
+    EXPECT_EQ(back.backend.prefilter.min_num_points, 14);
+    EXPECT_EQ(back.backend.prefilter.max_slope, 0.25);
+    const auto front =
+        stages::FrontendParams::load(stack.process("frontend_forward"), stack.robot, pf);
+    EXPECT_EQ(front.prefilter.min_num_points, 14);
+    EXPECT_EQ(front.prefilter.max_proj_err_rms_px, 2.5);
+  }
+  {  // absent: the paper's region
+    const auto pf = stages::loadPrefilter(load("", ""));
+    EXPECT_EQ(pf.min_num_points, backend::PrefilterParams{}.min_num_points);
+    EXPECT_EQ(pf.max_slope, backend::PrefilterParams{}.max_slope);
+  }
+  {
+    const auto stack = load("", "    prefilter:\n      max_slope: 0.2\n");
+    try {
+      stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                       stages::loadPrefilter(stack));
+      ADD_FAILURE() << "a prefilter block inside the back-end's block was accepted";
+    } catch (const config::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("top level"), std::string::npos) << e.what();
+    }
+  }
+  {
+    const auto stack = load("prefilter:\n  max_slop: 0.2\n", "");
+    try {
+      stages::loadPrefilter(stack);
+      ADD_FAILURE() << "a misspelt pre-filter key was accepted";
+    } catch (const config::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("max_slop"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove_all(dir);
+}
+
 TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
   // Localization in a known map: an earlier run's map file holds landmarks
   // with a back-end pose (pose source "map") and one known only by its
@@ -422,8 +490,8 @@ TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
   };
   write_config("landmarks.vslam-map");  // relative to the config file
   auto stack = config::StackConfig::loadFile(config);
-  stages::BackendStage stage(
-      stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+  stages::BackendStage stage(stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                              stages::loadPrefilter(stack)));
   EXPECT_EQ(stage.priorLandmarks(), 2u);
   const backend::ParticleFilter& filter = stage.backend().filter();
   EXPECT_EQ(filter.numLandmarks(), 2u);
@@ -448,8 +516,8 @@ TEST(BackendStage, StartsFromTheLandmarkPosesOfAMapFile) {
   write_config("not-a-map");
   stack = config::StackConfig::loadFile(config);
   try {
-    stages::BackendStage bad(
-        stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+    stages::BackendStage bad(stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                              stages::loadPrefilter(stack)));
     ADD_FAILURE() << "a file that is not a map was accepted";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("not-a-map"), std::string::npos) << e.what();
@@ -472,8 +540,8 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
   };
   write_config("unknown");
   auto stack = config::StackConfig::loadFile(config);
-  stages::BackendStage stage(
-      stages::BackendStageParams::load(stack.process("backend"), stack.robot));
+  stages::BackendStage stage(stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                              stages::loadPrefilter(stack)));
   backend::Backend& be = stage.backend();
   EXPECT_TRUE(be.filter().kidnapped());
 
@@ -505,14 +573,16 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
   write_config("origin");
   stack = config::StackConfig::loadFile(config);
   EXPECT_FALSE(
-      stages::BackendStage(stages::BackendStageParams::load(stack.process("backend"), stack.robot))
+      stages::BackendStage(stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                            stages::loadPrefilter(stack)))
           .backend()
           .filter()
           .kidnapped());
   write_config("somewhere");
   stack = config::StackConfig::loadFile(config);
   try {
-    stages::BackendStageParams::load(stack.process("backend"), stack.robot);
+    stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                     stages::loadPrefilter(stack));
     ADD_FAILURE() << "map_prior_start: somewhere was accepted";
   } catch (const config::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("map_prior_start"), std::string::npos) << e.what();
