@@ -95,8 +95,10 @@ int runStageProcess(int argc, char** argv, const std::string& role, const StageR
     log::error("cannot start: ", e.what());
     return kExitFailure;
   }
-  // The parameters as the stage read them, defaults marked.
-  const auto params = stack->root.resolvedValues("processes." + args.instance + ".");
+  // The parameters as the stage read them, defaults marked: its block and
+  // the stack-level blocks it reads (the pre-filter).
+  auto params = stack->root.resolvedValues("processes." + args.instance + ".");
+  for (auto& shared : stack->root.resolvedValues("prefilter.")) params.push_back(std::move(shared));
   if (args.print_config) {
     stack->robot.print(std::cout);
     std::cout << "instance " << args.instance << " (role " << role << ") from " << args.config_file

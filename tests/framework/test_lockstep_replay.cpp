@@ -293,3 +293,26 @@ TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
   EXPECT_NE(err.find("not a complete event"), std::string::npos) << err;
   EXPECT_FALSE(readLog(dir_ / "cut_out.lcmlog").empty());  // what was replayed is kept
 }
+
+// --print-config lists what the process read: its own block and the stack
+// blocks it shares (the pre-filter for the back-end and the front-ends; not
+// for a process that does not read it).
+TEST(PrintConfig, ListsTheSharedBlocksAProcessReads) {
+  const std::string cfg = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
+  const auto printed = [&](const std::string& program, const std::string& instance) {
+    std::string out;
+    EXPECT_EQ(runCommand(std::string(VSLAM_BIN_DIR) + "/" + program + " --config " + cfg +
+                             " --instance " + instance + " --print-config",
+                         &out),
+              0)
+        << out;
+    return out;
+  };
+  const std::string backend = printed("vslam-backend", "backend");
+  EXPECT_NE(backend.find("processes.backend.num_particles"), std::string::npos) << backend;
+  EXPECT_NE(backend.find("prefilter.min_num_points = 10"), std::string::npos) << backend;
+  const std::string frontend = printed("vslam-frontend", "frontend_forward");
+  EXPECT_NE(frontend.find("prefilter.max_slope = 0.1"), std::string::npos) << frontend;
+  const std::string appearance = printed("vslam-appearance", "appearance");
+  EXPECT_EQ(appearance.find("prefilter."), std::string::npos) << appearance;
+}
