@@ -370,8 +370,8 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
       << "                        nearest earlier state, weighted as the hypotheses above)\n"
       << "  weighted by belief    position error " << fmt(r.weighted_position_error)
       << " m, nearest state " << fmt(r.weighted_nearest_state_distance)
-      << " m (what the tree believes;\n"
-      << "                        a relocalization seed weighs little until it is confirmed)\n"
+      << " m (each hypothesis counted by its\n"
+      << "                        belief: where the tree believes the robot is)\n"
       << "  heading error         mean |e| " << fmt(radToDeg(r.mean_abs_heading_error), 2)
       << " deg\n"
       << "  best is a revisit     " << r.steps_best_revisit << " steps, its mean position error "

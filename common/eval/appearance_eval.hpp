@@ -120,8 +120,7 @@ struct AppearanceReport {
   // better than this.
   double mean_nearest_state_distance = 0;
   // The same two weighted by each hypothesis' belief: where the tree
-  // believes the robot is (relocalization seeds, many and unconfirmed, weigh
-  // little).
+  // believes the robot is.
   double weighted_position_error = 0, weighted_nearest_state_distance = 0;
   double mean_step_seconds = 0, max_step_seconds = 0;  // the process's own timing
 };
