@@ -76,6 +76,17 @@ bus::ReplayStats replayBackend(const config::StackConfig& stack, const fs::path&
   return replay.run();
 }
 
+// `load` must throw a ConfigError whose message names `what`.
+template <typename Load>
+void expectConfigError(Load load, const std::string& what, const std::string& accepted) {
+  try {
+    load();
+    ADD_FAILURE() << accepted << " was accepted";
+  } catch (const config::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 
 TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
@@ -354,13 +365,12 @@ processes:
   const fs::path dir = vslam::test::scratchDir("backend_config");
   const fs::path file = dir / "vslam.yaml";
   { std::ofstream(file) << yaml; }
-  try {
-    const auto stack = config::StackConfig::loadFile(file);
-    stages::builtinStages().create(stack, "backend", "backend");
-    ADD_FAILURE() << "a misspelt key was accepted";
-  } catch (const config::ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("dual_ratio_mix"), std::string::npos) << e.what();
-  }
+  expectConfigError(
+      [&] {
+        const auto stack = config::StackConfig::loadFile(file);
+        stages::builtinStages().create(stack, "backend", "backend");
+      },
+      "dual_ratio_mix", "a misspelt key");
   fs::remove_all(dir);
 }
 
@@ -455,22 +465,17 @@ TEST(StackPrefilter, OneBlockReachesTheBackEndAndEveryFrontEnd) {
   }
   {
     const auto stack = load("", "    prefilter:\n      max_slope: 0.2\n");
-    try {
-      stages::BackendStageParams::load(stack.process("backend"), stack.robot,
-                                       stages::loadPrefilter(stack));
-      ADD_FAILURE() << "a prefilter block inside the back-end's block was accepted";
-    } catch (const config::ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("top level"), std::string::npos) << e.what();
-    }
+    expectConfigError(
+        [&] {
+          stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                           stages::loadPrefilter(stack));
+        },
+        "top level", "a prefilter block inside the back-end's block");
   }
   {
     const auto stack = load("prefilter:\n  max_slop: 0.2\n", "");
-    try {
-      stages::loadPrefilter(stack);
-      ADD_FAILURE() << "a misspelt pre-filter key was accepted";
-    } catch (const config::ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("max_slop"), std::string::npos) << e.what();
-    }
+    expectConfigError([&] { stages::loadPrefilter(stack); }, "max_slop",
+                      "a misspelt pre-filter key");
   }
   fs::remove_all(dir);
 }
@@ -580,13 +585,12 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
           .kidnapped());
   write_config("somewhere");
   stack = config::StackConfig::loadFile(config);
-  try {
-    stages::BackendStageParams::load(stack.process("backend"), stack.robot,
-                                     stages::loadPrefilter(stack));
-    ADD_FAILURE() << "map_prior_start: somewhere was accepted";
-  } catch (const config::ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("map_prior_start"), std::string::npos) << e.what();
-  }
+  expectConfigError(
+      [&] {
+        stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                         stages::loadPrefilter(stack));
+      },
+      "map_prior_start", "map_prior_start: somewhere");
   fs::remove_all(dir);
 }
 
