@@ -322,6 +322,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   counters_.landmarks_initialized += u.kind == UpdateKind::kInitialized;
   counters_.kidnaps_detected += u.kidnap_detected;
   counters_.recoveries += u.recovered;
+  counters_.drift_corrections += u.drift_corrected;
   counters_.resamplings += u.resampled;
   if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();
   // Consistent: most particles found it within the gate.

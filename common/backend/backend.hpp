@@ -128,6 +128,7 @@ struct BackendCounters {
   int64_t landmarks_initialized = 0;
   int64_t kidnaps_detected = 0;
   int64_t recoveries = 0;
+  int64_t drift_corrections = 0;  // evidence within the drift gate (KidnapParams)
   int64_t resamplings = 0;
   int64_t odometry_steps = 0;
   int64_t odometry_ignored = 0;  // stale, invalid, reset, implausible

@@ -284,15 +284,31 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       }
       low_run_.clear();
     }
-    if (static_cast<int>(low_run_.size()) >= kp.detect_count && kidnapEvidence(kp)) {
-      held_ = estimate().mean;  // published until the relocalization is confirmed
-      kidnapped_ = true;
-      rep.kidnap_detected = true;
-      reloc_run_.clear();
+    const std::optional<Pose2> evidence =
+        static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
+    if (evidence) {
+      const Pose2 from = estimate().mean;
+      rep.evidence = true;
+      rep.jump = {evidence->x - from.x, evidence->y - from.y,
+                  wrapAngle(evidence->theta - from.theta)};
+      rep.jump_mahalanobis_sq = driftMahalanobisSq(from, *evidence);
       low_run_.clear();
-      recover_count_ = 0;
-      recover_landmarks_.clear();
-      all_dual = true;
+      if (kp.drift_gate_mahalanobis_sq > 0 &&
+          rep.jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
+        // Drift: every particle moves by the jump (keeping its spread and
+        // map); this measurement then weighs them as usual.
+        shiftParticles(evidence->compose(from.inverse()));
+        rep.drift_corrected = true;
+        smoothed_agreement_ = 1;
+      } else {
+        held_ = from;  // published until the relocalization is confirmed
+        kidnapped_ = true;
+        rep.kidnap_detected = true;
+        reloc_run_.clear();
+        recover_count_ = 0;
+        recover_landmarks_.clear();
+        all_dual = true;
+      }
     }
   }
   if (!all_dual) {
@@ -407,32 +423,55 @@ ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t
   return {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(obs.relative), odometry_};
 }
 
-int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i) const {
+int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
+                                      Pose2* mean_pose) const {
   const KidnapParams& kp = params_.kidnap;
   // The implied poses carried to the present by the odometry since.
   auto now = [&](const Implied& m) { return m.implied.compose(m.odometry.between(odometry_)); };
   const Pose2 ref = now(run[i]);
   std::vector<int64_t> agreeing;
+  double sx = 0, sy = 0, sc = 0, ss = 0, members = 0;  // the cluster's mean pose
   for (const Implied& m : run) {
     const Pose2 p = now(m);
     if (std::hypot(p.x - ref.x, p.y - ref.y) > kp.cluster_xy_m ||
         std::abs(wrapAngle(p.theta - ref.theta)) > kp.cluster_theta_rad)
       continue;
+    sx += p.x;
+    sy += p.y;
+    sc += std::cos(p.theta);
+    ss += std::sin(p.theta);
+    members += 1;  // at least run[i] itself
     if (std::find(agreeing.begin(), agreeing.end(), m.landmark_id) == agreeing.end())
       agreeing.push_back(m.landmark_id);
   }
+  if (mean_pose != nullptr) *mean_pose = {sx / members, sy / members, std::atan2(ss, sc)};
   return static_cast<int>(agreeing.size());
 }
 
-bool ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
+std::optional<Pose2> ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
   if (kp.detect_min_span_s > 0 &&
       static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
           kp.detect_min_span_s * 1e6)
-    return false;
+    return std::nullopt;
   for (size_t i = 0; i < low_run_.size(); ++i) {
-    if (agreeingLandmarks(low_run_, i) >= kp.detect_landmarks) return true;
+    Pose2 at;
+    if (agreeingLandmarks(low_run_, i, &at) >= kp.detect_landmarks) return at;
   }
-  return false;
+  return std::nullopt;
+}
+
+double ParticleFilter::driftMahalanobisSq(const Pose2& from, const Pose2& to) const {
+  const double k = params_.kidnap.drift_sigma_scale;
+  const Eigen::Matrix3d s = k * k * estimate().covariance + params_.measurementCovariance();
+  const Eigen::Vector3d d(to.x - from.x, to.y - from.y, wrapAngle(to.theta - from.theta));
+  return d.dot(s.ldlt().solve(d));
+}
+
+void ParticleFilter::shiftParticles(const Pose2& shift) {
+  for (Particle& p : particles_) {
+    p.pose = shift.compose(p.pose);
+    p.anchor = shift.compose(p.anchor);
+  }
 }
 
 ParticleFilter::LandmarkRecord& ParticleFilter::record(uint32_t slot) {
@@ -577,11 +616,8 @@ void ParticleFilter::correctMap(const std::vector<CorrectedLandmark>& landmarks,
     e.mean = l.pose.vector();
     e.covariance = landmark_covariance;
   }
-  for (Particle& p : particles_) {
-    p.map = map;
-    p.pose = shift.compose(p.pose);
-    p.anchor = shift.compose(p.anchor);
-  }
+  for (Particle& p : particles_) p.map = map;
+  shiftParticles(shift);
 }
 
 PoseEstimate ParticleFilter::estimate() const {

@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -108,6 +109,17 @@ struct KidnapParams {
   // the newest measurement among them: the all-dual particles, drawn from
   // one measurement at a time, test only neighbours in a row.
   double recover_window_s = 0.0;
+  // Drift or kidnapping? Evidence that passes the tests above says where the
+  // robot is; if that pose is within the uncertainty the filter has, the
+  // inconsistency is the drift of a path that went unobserved (a loop
+  // closing), which the paper's test cannot tell from a kidnapping (6.2):
+  // the particles are moved onto the evidence and the filter goes on, with
+  // no kidnapped period. "Within": the jump's squared Mahalanobis distance
+  // under drift_sigma_scale^2 x the particles' covariance (spread by the
+  // motion model, whose sigmas are a guess) + Sigma_vis is at most
+  // drift_gate_mahalanobis_sq. 0: every such evidence is a kidnapping.
+  double drift_gate_mahalanobis_sq = 0.0;
+  double drift_sigma_scale = 1.0;
 };
 
 struct FilterParams {
@@ -166,8 +178,16 @@ struct UpdateReport {
   bool resampled = false;
   int num_outliers = 0;          // particles for which the measurement failed the gate
   bool kidnap_detected = false;  // this measurement started a kidnapped period
-  bool recovered = false;        // this measurement ended one
-  bool suspect = false;          // the landmark is a known look-alike (KidnapParams::suspect_after)
+  // Evidence of a pose far from the estimate (KidnapParams) was found at this
+  // measurement: the jump from the estimate to it (map frame: dx, dy, dtheta),
+  // its squared Mahalanobis distance under the drift covariance, and whether
+  // it was taken as drift (the particles moved by `jump`) or as a kidnapping.
+  bool evidence = false;
+  Pose2 jump;
+  double jump_mahalanobis_sq = 0;
+  bool drift_corrected = false;
+  bool recovered = false;  // this measurement ended one
+  bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
 };
 
 struct PoseEstimate {
@@ -274,8 +294,12 @@ class ParticleFilter {
   Implied implied(const Observation& obs, uint32_t slot) const;
   // Distinct landmarks of `run` whose implied poses, carried to now by the
   // odometry, agree with that of run[i] (KidnapParams::cluster_*).
-  int agreeingLandmarks(const std::vector<Implied>& run, size_t i) const;
-  bool kidnapEvidence(const KidnapParams& kp) const;
+  int agreeingLandmarks(const std::vector<Implied>& run, size_t i,
+                        Pose2* mean_pose = nullptr) const;
+  // Where the inconsistent run says the robot is, if it is evidence enough.
+  std::optional<Pose2> kidnapEvidence(const KidnapParams& kp) const;
+  double driftMahalanobisSq(const Pose2& from, const Pose2& to) const;
+  void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
 
   bool kidnapped_ = false;

@@ -119,6 +119,10 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     k.recover_landmarks =
         static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
     k.recover_window_s = kd.getDouble("recover_window_s", k.recover_window_s, InRange{0, 600});
+    k.drift_gate_mahalanobis_sq =
+        kd.getDouble("drift_gate_mahalanobis_sq", k.drift_gate_mahalanobis_sq, InRange{0, 1e6});
+    k.drift_sigma_scale =
+        kd.getDouble("drift_sigma_scale", k.drift_sigma_scale, InRange{1e-3, 1000});
     kd.requireAllKeysUsed();
   }
   if (node.has("odometry_calibration")) {
@@ -345,6 +349,13 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                  r.update.smoothed_agreement, " dual ", r.update.num_dual, " outliers ",
                  r.update.num_outliers, " ess ", r.update.ess,
                  r.update.suspect ? " look-alike" : "");
+      if (r.update.evidence) {
+        const Pose2& j = r.update.jump;
+        log::info("evidence of a pose ", std::hypot(j.x, j.y), " m, ", radToDeg(j.theta),
+                  " deg from the estimate at t ", msg.utime, " (Mahalanobis^2 ",
+                  r.update.jump_mahalanobis_sq, " under the drift covariance): ",
+                  r.update.drift_corrected ? "drift, the particles moved onto it" : "kidnapping");
+      }
       if (r.update.kidnap_detected) {
         log::warn("kidnapping detected at t ", msg.utime, ", measurement ", msg.seq, " of ",
                   msg.camera, " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement,
@@ -504,6 +515,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("kidnapped", e.kidnapped ? 1.0 : 0.0);
   report.add("kidnaps_detected", static_cast<double>(c.kidnaps_detected), "count");
   report.add("recoveries", static_cast<double>(c.recoveries), "count");
+  report.add("drift_corrections", static_cast<double>(c.drift_corrections), "count");
   report.add("resamplings", static_cast<double>(c.resamplings), "count");
   report.add("odometry_ignored", static_cast<double>(c.odometry_ignored), "count");
   report.add("position_sigma", std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)), "m");
