@@ -28,6 +28,8 @@ const char* toString(MeasurementUse u) {
       return "newer than the newest odometry";
     case MeasurementUse::kThinned:
       return "too soon after the landmark's last used measurement";
+    case MeasurementUse::kRetired:
+      return "its landmark disagrees with the odometry";
   }
   return "?";
 }
@@ -298,6 +300,14 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
       odometryAt(m.utime, params_.max_measurement_age_s, &why);
   if (!then_odometry) return finish(why);
   const Observation obs = alignedObservation(m, then_odometry->pose);
+  if (graph_ && graph_->retired(m.landmark_id)) {
+    // Badly built (PoseGraphParams::odometry_gate_*): not for the filter;
+    // the graph keeps judging it, so it may come back.
+    if (!filter_.kidnapped())
+      addToGraph(m, *then_odometry,
+                 filter_.outlierFraction(obs) <= params_.map_correction.max_outlier_fraction);
+    return finish(MeasurementUse::kRetired);
+  }
   if (params_.landmark_min_interval_s > 0) {
     const auto last = last_used_.find(m.landmark_id);
     const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);

@@ -112,8 +112,9 @@ enum class MeasurementUse {
   kTooOld,           // older than the odometry history
   kTooNew,           // newer than the newest odometry by more than max_measurement_lead_s
   kThinned,          // within landmark_min_interval_s of the landmark's last used measurement
+  kRetired,          // its landmark disagrees with the odometry (map correction's odometry gate)
 };
-constexpr int kNumMeasurementUse = 7;
+constexpr int kNumMeasurementUse = 8;
 const char* toString(MeasurementUse u);
 
 struct MeasurementResult {

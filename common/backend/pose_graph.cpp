@@ -92,6 +92,8 @@ void PoseGraphParams::validate() const {
   if (!(max_measurement_distance_m > 0)) bad("max_measurement_distance_m");
   if (!(robust_sigmas > 0)) bad("robust_sigmas");
   if (max_iterations < 1) bad("max_iterations");
+  if (!(odometry_gate_mahalanobis_sq >= 0)) bad("odometry_gate_mahalanobis_sq");
+  if (min_agreeing < 0) bad("min_agreeing");
   if (!(segment_prior_sigma_xy_m > 0)) bad("segment_prior_sigma_xy_m");
   if (!(segment_prior_sigma_theta_rad > 0)) bad("segment_prior_sigma_theta_rad");
 }
@@ -142,7 +144,17 @@ int PoseGraph::addNode(int64_t utime, const OdometryAt& odometry, const Pose2& g
 void PoseGraph::addLandmark(int64_t landmark_id, int node) {
   if (node < 0 || static_cast<size_t>(node) >= nodes_.size())
     throw std::invalid_argument("pose graph: landmark at an unknown node");
-  landmarks_.emplace(landmark_id, node);
+  landmarks_.emplace(landmark_id, Landmark{node});
+}
+
+PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(const OdometryAt& a,
+                                                    const OdometryAt& b) const {
+  const double d = std::abs(b.distance_m - a.distance_m);
+  const double r = std::abs(b.rotation_rad - a.rotation_rad);
+  const double st2 = params_.sigma_translation * params_.sigma_translation;
+  const double sr2 = params_.sigma_rotation * params_.sigma_rotation;
+  // Small floors keep a standing robot's edge well-conditioned.
+  return {std::sqrt(st2 * d + sr2 * d * d * d / 3.0 + 1e-6), std::sqrt(sr2 * (d + r) + 1e-8)};
 }
 
 bool PoseGraph::addMeasurement(int64_t landmark_id, int node, const Pose2& y) {
@@ -150,9 +162,45 @@ bool PoseGraph::addMeasurement(int64_t landmark_id, int node, const Pose2& y) {
   if (it == landmarks_.end() || node < 0 || static_cast<size_t>(node) >= nodes_.size())
     return false;
   if (!y.isFinite() || std::hypot(y.x, y.y) > params_.max_measurement_distance_m) return false;
-  if (it->second == node) return false;  // a measurement at the creation time says nothing
-  measurements_.push_back({it->second, node, y});
+  Landmark& l = it->second;
+  if (l.creation_node == node) return false;  // a measurement at the creation time says nothing
+  const Node& a = nodes_[static_cast<size_t>(l.creation_node)];
+  const Node& b = nodes_[static_cast<size_t>(node)];
+  if (params_.odometry_gate_mahalanobis_sq > 0 && a.segment == b.segment) {
+    const OdometrySigmas o = odometrySigmas(a.odometry, b.odometry);
+    const double d = std::hypot(y.x, y.y);
+    const double m_xy =
+        std::hypot(params_.measurement_sigma_xy_m, params_.measurement_sigma_xy_per_m * d);
+    const double m_theta = std::hypot(params_.measurement_sigma_theta_rad,
+                                      params_.measurement_sigma_theta_rad_per_m * d);
+    const Pose2 e = a.odometry.pose.between(b.odometry.pose).between(y);
+    const double d2 = (e.x * e.x + e.y * e.y) / (o.xy * o.xy + m_xy * m_xy) +
+                      e.theta * e.theta / (o.theta * o.theta + m_theta * m_theta);
+    (d2 <= params_.odometry_gate_mahalanobis_sq ? l.agreeing : l.contradicting) += 1;
+  }
+  measurements_.push_back({landmark_id, l.creation_node, node, y});
   return true;
+}
+
+bool PoseGraph::trusted(int64_t landmark_id) const {
+  if (params_.odometry_gate_mahalanobis_sq <= 0) return true;
+  const auto it = landmarks_.find(landmark_id);
+  return it != landmarks_.end() && it->second.agreeing >= params_.min_agreeing &&
+         !retired(landmark_id);
+}
+
+bool PoseGraph::retired(int64_t landmark_id) const {
+  if (params_.odometry_gate_mahalanobis_sq <= 0) return false;
+  const auto it = landmarks_.find(landmark_id);
+  if (it == landmarks_.end()) return false;
+  const Landmark& l = it->second;
+  return l.contradicting >= 2 && l.contradicting >= l.agreeing;
+}
+
+size_t PoseGraph::numDistrustedLandmarks() const {
+  size_t n = 0;
+  for (const auto& [id, l] : landmarks_) n += !trusted(id);
+  return n;
 }
 
 PoseGraphSolveSummary PoseGraph::solve() {
@@ -182,21 +230,13 @@ PoseGraphSolveSummary PoseGraph::solve() {
       }
     } else {
       const Pose2 z = prev->odometry.pose.between(n.odometry.pose);
-      const double d = std::max(0.0, n.odometry.distance_m - prev->odometry.distance_m);
-      const double r = std::max(0.0, n.odometry.rotation_rad - prev->odometry.rotation_rad);
-      // Along-track noise grows with the distance; the heading's random walk
-      // adds cross-track error growing with d^3. Small floors keep a
-      // standing robot's edge well-conditioned.
-      const double st2 = p.sigma_translation * p.sigma_translation;
-      const double sr2 = p.sigma_rotation * p.sigma_rotation;
-      const double sigma_xy = std::sqrt(st2 * d + sr2 * d * d * d / 3.0 + 1e-6);
-      const double sigma_theta = std::sqrt(sr2 * (d + r) + 1e-8);
-      problem.AddResidualBlock(RelativePoseCost::create(z, sigma_xy, sigma_theta), nullptr, prev->x,
-                               n.x);
+      const OdometrySigmas o = odometrySigmas(prev->odometry, n.odometry);
+      problem.AddResidualBlock(RelativePoseCost::create(z, o.xy, o.theta), nullptr, prev->x, n.x);
     }
     prev = &n;
   }
   for (const Measurement& m : measurements_) {
+    if (!trusted(m.landmark_id)) continue;
     Node& a = nodes_[static_cast<size_t>(m.creation_node)];
     Node& b = nodes_[static_cast<size_t>(m.node)];
     const double d = std::hypot(m.y.x, m.y.y);
@@ -238,13 +278,13 @@ Pose2 PoseGraph::nodePose(int node) const {
 std::optional<Pose2> PoseGraph::landmarkPose(int64_t landmark_id) const {
   const auto it = landmarks_.find(landmark_id);
   if (it == landmarks_.end()) return std::nullopt;
-  return nodePose(it->second);
+  return nodePose(it->second.creation_node);
 }
 
 std::vector<std::pair<int64_t, Pose2>> PoseGraph::landmarkPoses() const {
   std::vector<std::pair<int64_t, Pose2>> out;
   out.reserve(landmarks_.size());
-  for (const auto& [id, node] : landmarks_) out.emplace_back(id, nodePose(node));
+  for (const auto& [id, l] : landmarks_) out.emplace_back(id, nodePose(l.creation_node));
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return out;
 }

@@ -63,6 +63,19 @@ struct PoseGraphParams {
   RobustLoss robust_loss = RobustLoss::kCauchy;
   double robust_sigmas = 8.0;
   int max_iterations = 20;
+  // A landmark's measurements are tested against the odometry between its
+  // creation node and the measurement's node (same odometry segment only):
+  // the squared Mahalanobis distance of their difference under the
+  // odometry's covariance (this motion model) plus the measurement's. A
+  // badly built landmark (structure triangulated from look-alike points:
+  // measurements 0.3 m and 8-14 degrees off from the first one on) disagrees
+  // with the odometry over the first metre, where the odometry is good to a
+  // degree or two; its edges would bend the graph. The edges of a landmark
+  // enter a solve only once `min_agreeing` of its measurements passed the
+  // test, and never while as many failed it as passed (at least two). 0:
+  // no test, every edge enters.
+  double odometry_gate_mahalanobis_sq = 0.0;
+  int min_agreeing = 2;
   // Prior of the first node of a segment other than the first.
   double segment_prior_sigma_xy_m = 0.5;
   double segment_prior_sigma_theta_rad = 10 * M_PI / 180;
@@ -120,6 +133,12 @@ class PoseGraph {
   size_t numNodes() const { return nodes_.size(); }
   size_t numLandmarks() const { return landmarks_.size(); }
   size_t numMeasurements() const { return measurements_.size(); }
+  // Landmarks whose edges a solve would leave out now (odometry_gate_*):
+  // not yet confirmed, or retired (as many measurements against the odometry
+  // as with it, at least two).
+  size_t numDistrustedLandmarks() const;
+  bool trusted(int64_t landmark_id) const;
+  bool retired(int64_t landmark_id) const;
   size_t numSegments() const { return segment_start_.size(); }
   const PoseGraphParams& params() const { return params_; }
   // The odometry edges' noise from the next solve on (odometry calibration).
@@ -137,10 +156,23 @@ class PoseGraph {
     Pose2 guess;              // for a segment's first node: its prior
   };
   struct Measurement {
+    int64_t landmark_id;
     int creation_node;
     int node;
     Pose2 y;
   };
+  struct Landmark {
+    int creation_node;
+    int agreeing = 0;       // measurements within the odometry gate
+    int contradicting = 0;  // and beyond it
+  };
+  // Standard deviations of the odometry between two readings, as the motion
+  // model: along-track noise growing with the distance d, the heading's
+  // random walk adding cross-track error growing with d^3.
+  struct OdometrySigmas {
+    double xy, theta;
+  };
+  OdometrySigmas odometrySigmas(const OdometryAt& a, const OdometryAt& b) const;
 
   PoseGraphParams params_;
   std::vector<Node> nodes_;
@@ -148,8 +180,8 @@ class PoseGraph {
 
   std::map<std::pair<int, int64_t>, int> by_time_;  // (segment, utime) -> node
   std::vector<int64_t> segment_start_{
-      std::numeric_limits<int64_t>::min()};     // segment k covers [start_k, start_k+1)
-  std::unordered_map<int64_t, int> landmarks_;  // landmark id -> creation node
+      std::numeric_limits<int64_t>::min()};  // segment k covers [start_k, start_k+1)
+  std::unordered_map<int64_t, Landmark> landmarks_;
   std::vector<Measurement> measurements_;
 };
 

@@ -177,6 +177,9 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
     }
     g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
     g.max_iterations = static_cast<int>(mc.getInt("max_iterations", 20, InRange{1, 1000}));
+    g.odometry_gate_mahalanobis_sq = mc.getDouble("odometry_gate_mahalanobis_sq",
+                                                  g.odometry_gate_mahalanobis_sq, InRange{0, 1e6});
+    g.min_agreeing = static_cast<int>(mc.getInt("min_agreeing", g.min_agreeing, InRange{0, 1000}));
     g.segment_prior_sigma_xy_m = mc.getDouble("segment_prior_sigma_xy_m", 0.5, InRange{1e-3, 100});
     g.segment_prior_sigma_theta_rad =
         degToRad(mc.getDouble("segment_prior_sigma_theta_deg", 10.0, InRange{1e-3, 180}));
@@ -374,6 +377,7 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
       }
       break;
     case MeasurementUse::kThinned:
+    case MeasurementUse::kRetired:
       break;
     case MeasurementUse::kInvalidLandmark:
       logLimited(kLogLandmark, "measurement seq ", msg.seq, " of ", msg.camera,
@@ -507,6 +511,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
              "count");
   report.add("measurements_thinned",
              static_cast<double>(c.use[static_cast<int>(MeasurementUse::kThinned)]), "count");
+  report.add("measurements_unused_retired",
+             static_cast<double>(c.use[static_cast<int>(MeasurementUse::kRetired)]), "count");
   report.add("landmarks", static_cast<double>(backend_.filter().numLandmarks()), "count");
   report.add("particles", static_cast<double>(backend_.filter().particles().size()), "count");
   const backend::PoseEstimate e = backend_.filter().estimate();
@@ -544,6 +550,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     report.add("graph_nodes", static_cast<double>(g->numNodes()), "count");
     report.add("graph_landmarks", static_cast<double>(c.landmarks_in_graph), "count");
     report.add("graph_landmark_creations_unused", static_cast<double>(c.landmark_creations_unused),
+               "count");
+    report.add("graph_landmarks_distrusted", static_cast<double>(g->numDistrustedLandmarks()),
                "count");
     report.add("graph_measurements", static_cast<double>(c.graph_measurements), "count");
     report.add("graph_solves", static_cast<double>(c.graph_solves), "count");
