@@ -394,3 +394,41 @@ TEST(Backend, MapCorrectionPlacesLateAnnouncedCreationsButNotOnesBeyondItsHistor
   EXPECT_EQ(without.poseGraph(), nullptr);
   EXPECT_FALSE(without.addLandmarkCreation(3, 0));
 }
+
+TEST(Backend, ARetiredLandmarkNoLongerUpdatesTheFilter) {
+  // A robot drives straight at 0.2 m/s; landmark 1 is created at 0.2 m and
+  // measured well; landmark 2 is created at 0.4 m and every measurement of
+  // it is 0.3 m sideways and 8 degrees off the odometry. After two of its
+  // measurements disagree with the odometry it is retired: its measurements
+  // reach neither the graph's solves nor the filter.
+  BackendParams p;
+  p.filter.motion = {0.03, 0.03};
+  p.map_correction.enabled = true;
+  p.map_correction.graph.odometry_gate_mahalanobis_sq = 16.27;
+  Backend be(p);
+  auto odom = [](int64_t k) { return Pose2{0.02 * static_cast<double>(k), 0, 0}; };
+  const Pose2 error{0.0, 0.3, 8 * kDeg};
+  std::vector<MeasurementUse> uses2;
+  for (int64_t k = 0; k <= 100; ++k) {  // 10 Hz for 10 s: 2 m
+    const int64_t t = 1'000'000 + k * 100'000;
+    be.addOdometry({t, k, odom(k)});
+    if (k == 10) be.addLandmarkCreation(1, t);
+    if (k == 20) be.addLandmarkCreation(2, t);
+    if (k > 10 && k <= 60 && k % 5 == 0)
+      EXPECT_NE(be.addMeasurement({t, 1, odom(10).between(odom(k)), 0.5, 50, 0.0}).use,
+                MeasurementUse::kRetired);
+    if (k > 20 && k <= 90 && k % 5 == 2)
+      uses2.push_back(
+          be.addMeasurement({t, 2, odom(20).between(odom(k)).compose(error), 0.5, 50, 0.0}).use);
+  }
+  ASSERT_NE(be.poseGraph(), nullptr);
+  EXPECT_TRUE(be.poseGraph()->retired(2));
+  EXPECT_FALSE(be.poseGraph()->retired(1));
+  ASSERT_GE(uses2.size(), 10u);
+  EXPECT_EQ(uses2.front(), MeasurementUse::kUsed);  // the first one initialises the landmark
+  EXPECT_EQ(uses2.back(), MeasurementUse::kRetired);
+  EXPECT_GE(be.counters().use[static_cast<int>(MeasurementUse::kRetired)], 5);
+  // The estimate is the odometry's, not pulled sideways by landmark 2.
+  EXPECT_LT(std::abs(be.filter().estimate().mean.y), 0.05);
+  EXPECT_LT(std::abs(be.filter().estimate().mean.theta), 2 * kDeg);
+}
