@@ -312,9 +312,12 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     const auto last = last_used_.find(m.landmark_id);
     const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
     if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us) {
-      // Not for the filter, but the pose graph models the correlation (its
-      // measurement error grows with the distance) and may take it, and the
-      // odometry calibration pairs it with the landmark's other measurements.
+      // Not for the filter's weights, but for its kidnap test (a consistent
+      // one ends a run of inconsistent ones); the pose graph models the
+      // correlation (its measurement error grows with the distance) and may
+      // take it, and the odometry calibration pairs it with the landmark's
+      // other measurements.
+      filter_.noteUnused(obs);
       if ((graph_ || calibration_) && !filter_.kidnapped()) {
         const double outliers = filter_.outlierFraction(obs);
         if (graph_)

@@ -116,7 +116,7 @@ ParticleFilter::ParticleFilter(FilterParams params) : params_(std::move(params))
 ParticleFilter::~ParticleFilter() = default;
 
 template <class F>
-void ParticleFilter::forEachParticle(F&& f) {
+void ParticleFilter::forEachParticle(F&& f) const {
   const size_t m = particles_.size();
   const size_t grain = static_cast<size_t>(params_.grain_size);
   if (m <= grain || params_.num_threads == 1) {
@@ -219,15 +219,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     return std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
   };
 
-  // (1) How well does each particle, as it is, explain the measurement?
-  std::vector<double> d2(m);
-  forEachParticle([&](size_t i) {
-    const LandmarkEstimate* lm = particles_[i].map.find(slot);
-    d2[i] = innovation(*lm, particles_[i].pose, y, r).mahalanobis_sq;
-  });
-  double agreement = 0;
-  for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - 0.5 * d2[i]);
-  agreement = std::min(1.0, agreement / kConsistentAgreement);
+  // (1) How well do the particles, as they are, explain the measurement?
+  const double agreement = agreementWith(slot, obs, r);
 
   // (2) Mode: kidnap detection and recovery, the dynamic ratio.
   UpdateReport rep;
@@ -274,15 +267,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
       if (!suspect) pushBounded(low_run_, implied(obs, slot));
-    } else if (!low_run_.empty()) {
-      // Contradicted: every landmark of the run was seen somewhere it is not.
-      std::vector<uint32_t> seen;
-      for (const Implied& l : low_run_) {
-        if (std::find(seen.begin(), seen.end(), l.slot) != seen.end()) continue;
-        seen.push_back(l.slot);
-        record(l.slot).contradicted += 1;
-      }
-      low_run_.clear();
+    } else {
+      endLowRun();
     }
     const std::optional<Pose2> evidence =
         static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
@@ -416,6 +402,46 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     rep.resampled = true;
   }
   return rep;
+}
+
+double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
+                                     const Eigen::Matrix3d& r) const {
+  // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
+  const size_t m = particles_.size();
+  std::vector<double> log_w(m), d2(m);
+  for (size_t i = 0; i < m; ++i) log_w[i] = particles_[i].log_weight;
+  const double lse = logSumExp(log_w.data(), m);
+  forEachParticle([&](size_t i) {
+    const LandmarkEstimate* lm = particles_[i].map.find(slot);
+    d2[i] = innovation(*lm, particles_[i].pose, obs.relative, r).mahalanobis_sq;
+  });
+  double agreement = 0;
+  for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - lse - 0.5 * d2[i]);
+  return std::min(1.0, agreement / kConsistentAgreement);
+}
+
+void ParticleFilter::endLowRun() {
+  if (low_run_.empty()) return;
+  std::vector<uint32_t> seen;
+  for (const Implied& l : low_run_) {
+    if (std::find(seen.begin(), seen.end(), l.slot) != seen.end()) continue;
+    seen.push_back(l.slot);
+    record(l.slot).contradicted += 1;
+  }
+  low_run_.clear();
+}
+
+double ParticleFilter::noteUnused(const Observation& obs) {
+  const int64_t slot = slotOf(obs.landmark_id);
+  if (slot < 0 || !obs.relative.isFinite() || !obs.covariance.allFinite()) return 0;
+  const Eigen::Matrix3d r =
+      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  const double agreement = agreementWith(static_cast<uint32_t>(slot), obs, r);
+  if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
+    record(static_cast<uint32_t>(slot)).consistent += 1;
+    endLowRun();
+  }
+  return agreement;
 }
 
 ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t slot) const {

@@ -217,6 +217,14 @@ class ParticleFilter {
   // updates each particle's Kalman filter of the landmark, and resamples when
   // the effective sample size is low.
   UpdateReport update(const Observation& obs);
+  // A measurement of a known landmark that the caller does not use for an
+  // update (thinned: correlated with the last one used): no weights or maps
+  // change, but if the particles explain it (agreement >= recover_agreement)
+  // it ends a run of inconsistent measurements, as an update would: what the
+  // robot sees has a consistent explanation, so the run is no kidnap
+  // evidence. An inconsistent one does not extend the run. Returns the
+  // agreement (0 for an unknown landmark).
+  double noteUnused(const Observation& obs);
   // Systematic resampling, whatever the effective sample size. O(particles).
   void resample();
   // Starts every particle from the same known map (e.g. landmark poses saved
@@ -271,7 +279,7 @@ class ParticleFilter {
 
  private:
   template <class F>
-  void forEachParticle(F&& f);
+  void forEachParticle(F&& f) const;
   UpdateReport initialize(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r);
   void normalize();
 
@@ -298,6 +306,11 @@ class ParticleFilter {
                         Pose2* mean_pose = nullptr) const;
   // Where the inconsistent run says the robot is, if it is evidence enough.
   std::optional<Pose2> kidnapEvidence(const KidnapParams& kp) const;
+  // The particles' agreement with a measurement of the landmark in `slot`.
+  double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r) const;
+  // A consistent measurement ends the run of inconsistent ones: every
+  // landmark in it was seen somewhere it is not.
+  void endLowRun();
   double driftMahalanobisSq(const Pose2& from, const Pose2& to) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;

@@ -947,3 +947,39 @@ TEST(ParticleFilter, ACarryFarBeyondTheDriftIsStillAKidnapping) {
   ASSERT_GT(rec.relocalized_at, 0u) << "never relocalized";
   EXPECT_LT(world.utime(r.ticks[rec.relocalized_at]) - world.utime(kidnap_tick), 15'000'000);
 }
+
+TEST(ParticleFilter, AConsistentMeasurementLeftUnusedStillEndsARunOfLookAlikes) {
+  // Landmarks 1 and 2 are recognised on a look-alike wall: both put the
+  // standing robot 3 m back, in agreement, for 6 s. Landmark 3, in view all
+  // along, is measured consistently, but thinned (correlated with its last
+  // used measurement): the caller tells the filter of it without an update.
+  // What the robot sees then has a consistent explanation: no kidnapping.
+  // Without those notes the look-alikes are a kidnapping.
+  const int64_t t0 = 1'700'000'000'000'000;
+  auto at = [&](int64_t id, const Pose2& y, double seconds) {
+    Observation o;
+    o.landmark_id = id;
+    o.relative = y;
+    o.utime = t0 + static_cast<int64_t>(seconds * 1e6);
+    return o;
+  };
+  auto run = [&](bool note_unused) {
+    FilterParams p = homeParams(100);
+    p.kidnap.suspect_after = 0;
+    ParticleFilter pf(p);
+    pf.update(at(1, {1, 0, 0}, 0));   // landmark 1 at (-1, 0, 0)
+    pf.update(at(2, {0, 1, 0}, 0));   // landmark 2 at (0, -1, 0)
+    pf.update(at(3, {0, -1, 0}, 0));  // landmark 3 at (0, 1, 0)
+    int kidnaps = 0;
+    for (int k = 1; k <= 12; ++k) {
+      const double s = 0.5 * k;
+      kidnaps += pf.update(k % 2 ? at(1, {-2, 0, 0}, s) : at(2, {-3, 1, 0}, s)).kidnap_detected;
+      if (note_unused) {
+        EXPECT_GT(pf.noteUnused(at(3, {0, -1, 0}, s + 0.25)), 0.5);
+      }
+    }
+    return kidnaps;
+  };
+  EXPECT_EQ(run(true), 0);
+  EXPECT_GE(run(false), 1);  // the control
+}

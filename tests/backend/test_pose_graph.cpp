@@ -414,12 +414,14 @@ TEST(Backend, ARetiredLandmarkNoLongerUpdatesTheFilter) {
     be.addOdometry({t, k, odom(k)});
     if (k == 10) be.addLandmarkCreation(1, t);
     if (k == 20) be.addLandmarkCreation(2, t);
-    if (k > 10 && k <= 60 && k % 5 == 0)
+    if (k > 10 && k <= 60 && k % 5 == 0) {
       EXPECT_NE(be.addMeasurement({t, 1, odom(10).between(odom(k)), 0.5, 50, 0.0}).use,
                 MeasurementUse::kRetired);
-    if (k > 20 && k <= 90 && k % 5 == 2)
+    }
+    if (k > 20 && k <= 90 && k % 5 == 2) {
       uses2.push_back(
           be.addMeasurement({t, 2, odom(20).between(odom(k)).compose(error), 0.5, 50, 0.0}).use);
+    }
   }
   ASSERT_NE(be.poseGraph(), nullptr);
   EXPECT_TRUE(be.poseGraph()->retired(2));
