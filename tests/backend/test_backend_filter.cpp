@@ -796,15 +796,21 @@ TEST(ParticleFilter, WithoutTheRepeatedPatternRulesThePatternDoesHarm) {
   EXPECT_TRUE(kidnapped || worst > 0.5) << "worst " << worst;
 }
 
+namespace {
+
+// A measurement of landmark `id` at `seconds` after an arbitrary start.
+Observation observationAt(int64_t id, const Pose2& y, double seconds) {
+  Observation o;
+  o.landmark_id = id;
+  o.relative = y;
+  o.utime = 1'700'000'000'000'000 + static_cast<int64_t>(seconds * 1e6);
+  return o;
+}
+
+}  // namespace
+
 TEST(ParticleFilter, TwoLandmarksAgreeingOnAPoseConfirmARelocalizationEvenWithAnOutlierBetween) {
-  const int64_t t0 = 1'700'000'000'000'000;
-  auto at = [&](int64_t id, const Pose2& y, int64_t seconds) {
-    Observation o;
-    o.landmark_id = id;
-    o.relative = y;
-    o.utime = t0 + seconds * 1'000'000;
-    return o;
-  };
+  const auto at = observationAt;
   // Landmarks at (-1, 0, 0), (0, -1, 0) and (3, 3, 0), initialised from the
   // start pose; then the robot is lost. Landmark 1 says it is at (-3, 0);
   // landmark 3 (a look-alike elsewhere) says (5, 5); landmark 2 agrees with
@@ -955,14 +961,7 @@ TEST(ParticleFilter, AConsistentMeasurementLeftUnusedStillEndsARunOfLookAlikes) 
   // used measurement): the caller tells the filter of it without an update.
   // What the robot sees then has a consistent explanation: no kidnapping.
   // Without those notes the look-alikes are a kidnapping.
-  const int64_t t0 = 1'700'000'000'000'000;
-  auto at = [&](int64_t id, const Pose2& y, double seconds) {
-    Observation o;
-    o.landmark_id = id;
-    o.relative = y;
-    o.utime = t0 + static_cast<int64_t>(seconds * 1e6);
-    return o;
-  };
+  const auto at = observationAt;
   auto run = [&](bool note_unused) {
     FilterParams p = homeParams(100);
     p.kidnap.suspect_after = 0;
