@@ -72,10 +72,10 @@ struct PoseGraphParams {
   // with the odometry over the first metre, where the odometry is good to a
   // degree or two; its edges would bend the graph. The edges of a landmark
   // enter a solve only once `min_agreeing` of its measurements passed the
-  // test, and never while as many failed it as passed (at least two). 0:
-  // no test, every edge enters.
+  // test, and never while as many failed it as passed (at least two).
+  // odometry_gate_mahalanobis_sq 0: no test, every edge enters.
   double odometry_gate_mahalanobis_sq = 0.0;
-  int min_agreeing = 2;
+  int min_agreeing = 1;
   // Prior of the first node of a segment other than the first.
   double segment_prior_sigma_xy_m = 0.5;
   double segment_prior_sigma_theta_rad = 10 * M_PI / 180;

@@ -225,15 +225,18 @@ TEST(PoseGraph, ALandmarkThatDisagreesWithTheOdometryNeitherBendsThePathNorStays
   EXPECT_FALSE(without->retired(2));
 
   // A landmark enters a solve only once min_agreeing of its measurements
-  // agreed: one good measurement is not enough for 2.
+  // agreed: a first measurement against the odometry keeps it out; a good
+  // one then lets it in (one against is no retirement).
   PoseGraphParams p;
   p.odometry_gate_mahalanobis_sq = 16.27;
+  ASSERT_EQ(p.min_agreeing, 1);
   PoseGraph graph(p);
   graph.addNode(0, {Pose2{}, 0, 0}, Pose2{});
   graph.addLandmark(1, graph.addNode(1'000'000, {Pose2{0.2, 0, 0}, 0.2, 0}, Pose2{0.2, 0, 0}));
   const int n = graph.addNode(2'000'000, {Pose2{0.5, 0, 0}, 0.5, 0}, Pose2{0.5, 0, 0});
-  EXPECT_TRUE(graph.addMeasurement(1, n, Pose2{0.3, 0, 0}));
+  EXPECT_TRUE(graph.addMeasurement(1, n, Pose2{0.3, 0.3, 8 * kDeg}));
   EXPECT_FALSE(graph.trusted(1));
+  EXPECT_FALSE(graph.retired(1));
   const int m = graph.addNode(2'500'000, {Pose2{0.7, 0, 0}, 0.7, 0}, Pose2{0.7, 0, 0});
   EXPECT_TRUE(graph.addMeasurement(1, m, Pose2{0.5, 0, 0}));
   EXPECT_TRUE(graph.trusted(1));
