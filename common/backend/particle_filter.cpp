@@ -201,10 +201,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
 
   // Prior weights, normalised, in the log domain (they may underflow as
   // plain numbers when the particles disagree with the measurements).
-  std::vector<double> log_w(m);
-  for (size_t i = 0; i < m; ++i) log_w[i] = particles_[i].log_weight;
-  const double lse = logSumExp(log_w.data(), m);
-  for (double& v : log_w) v -= lse;
+  const std::vector<double> log_w = normalizedLogWeights();
 
   // Robust likelihood (OutlierParams): log of (1 - eps) N + eps u, and
   // whether the Kalman filter may use the measurement.
@@ -220,7 +217,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   };
 
   // (1) How well do the particles, as they are, explain the measurement?
-  const double agreement = agreementWith(slot, obs, r);
+  const double agreement = agreementWith(slot, obs, r, log_w);
 
   // (2) Mode: kidnap detection and recovery, the dynamic ratio.
   UpdateReport rep;
@@ -273,11 +270,12 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     const std::optional<Pose2> evidence =
         static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
     if (evidence) {
-      const Pose2 from = estimate().mean;
+      const PoseEstimate now = estimate();
+      const Pose2 from = now.mean;
       rep.evidence = true;
       rep.jump = {evidence->x - from.x, evidence->y - from.y,
                   wrapAngle(evidence->theta - from.theta)};
-      rep.jump_mahalanobis_sq = driftMahalanobisSq(from, *evidence);
+      rep.jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
       low_run_.clear();
       if (kp.drift_gate_mahalanobis_sq > 0 &&
           rep.jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
@@ -404,19 +402,28 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   return rep;
 }
 
+std::vector<double> ParticleFilter::normalizedLogWeights() const {
+  // In the log domain: as plain numbers they may underflow when the
+  // particles disagree with the measurements.
+  std::vector<double> log_w(particles_.size());
+  for (size_t i = 0; i < log_w.size(); ++i) log_w[i] = particles_[i].log_weight;
+  const double lse = logSumExp(log_w.data(), log_w.size());
+  for (double& v : log_w) v -= lse;
+  return log_w;
+}
+
 double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
-                                     const Eigen::Matrix3d& r) const {
+                                     const Eigen::Matrix3d& r,
+                                     const std::vector<double>& log_w) const {
   // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
   const size_t m = particles_.size();
-  std::vector<double> log_w(m), d2(m);
-  for (size_t i = 0; i < m; ++i) log_w[i] = particles_[i].log_weight;
-  const double lse = logSumExp(log_w.data(), m);
+  std::vector<double> d2(m);
   forEachParticle([&](size_t i) {
     const LandmarkEstimate* lm = particles_[i].map.find(slot);
     d2[i] = innovation(*lm, particles_[i].pose, obs.relative, r).mahalanobis_sq;
   });
   double agreement = 0;
-  for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - lse - 0.5 * d2[i]);
+  for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - 0.5 * d2[i]);
   return std::min(1.0, agreement / kConsistentAgreement);
 }
 
@@ -436,7 +443,8 @@ double ParticleFilter::noteUnused(const Observation& obs) {
   if (slot < 0 || !obs.relative.isFinite() || !obs.covariance.allFinite()) return 0;
   const Eigen::Matrix3d r =
       obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
-  const double agreement = agreementWith(static_cast<uint32_t>(slot), obs, r);
+  const double agreement =
+      agreementWith(static_cast<uint32_t>(slot), obs, r, normalizedLogWeights());
   if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
     record(static_cast<uint32_t>(slot)).consistent += 1;
     endLowRun();
@@ -486,10 +494,11 @@ std::optional<Pose2> ParticleFilter::kidnapEvidence(const KidnapParams& kp) cons
   return std::nullopt;
 }
 
-double ParticleFilter::driftMahalanobisSq(const Pose2& from, const Pose2& to) const {
+double ParticleFilter::driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const {
   const double k = params_.kidnap.drift_sigma_scale;
-  const Eigen::Matrix3d s = k * k * estimate().covariance + params_.measurementCovariance();
-  const Eigen::Vector3d d(to.x - from.x, to.y - from.y, wrapAngle(to.theta - from.theta));
+  const Eigen::Matrix3d s = k * k * from.covariance + params_.measurementCovariance();
+  const Eigen::Vector3d d(to.x - from.mean.x, to.y - from.mean.y,
+                          wrapAngle(to.theta - from.mean.theta));
   return d.dot(s.ldlt().solve(d));
 }
 

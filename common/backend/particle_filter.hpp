@@ -306,12 +306,17 @@ class ParticleFilter {
                         Pose2* mean_pose = nullptr) const;
   // Where the inconsistent run says the robot is, if it is evidence enough.
   std::optional<Pose2> kidnapEvidence(const KidnapParams& kp) const;
-  // The particles' agreement with a measurement of the landmark in `slot`.
-  double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r) const;
+  // The particles' log weights, normalised so that their exponentials sum to 1.
+  std::vector<double> normalizedLogWeights() const;
+  // The particles' agreement with a measurement of the landmark in `slot`,
+  // given normalizedLogWeights().
+  double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
+                       const std::vector<double>& log_w) const;
   // A consistent measurement ends the run of inconsistent ones: every
   // landmark in it was seen somewhere it is not.
   void endLowRun();
-  double driftMahalanobisSq(const Pose2& from, const Pose2& to) const;
+  // The jump from the estimate to `to` under the drift covariance (KidnapParams).
+  double driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
 
