@@ -337,6 +337,8 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   counters_.recoveries += u.recovered;
   counters_.drift_corrections += u.drift_corrected;
   counters_.resamplings += u.resampled;
+  if (u.kidnap_detected) deferred_.clear();
+  if (u.deferred) deferred_[m.landmark_id] = m;
   if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();
   // Consistent: most particles found it within the gate.
   const bool consistent =
@@ -345,6 +347,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
        static_cast<double>(u.num_outliers) <=
            kConsistentOutlierFraction * static_cast<double>(filter_.particles().size()));
   if (calibration_ && consistent && !u.suspect) calibrate(m, *then_odometry);
+  if (u.recovered) mapDeferredLandmarks();
   if (graph_) {
     if (u.recovered) joinOrBreakAfterKidnap();
     if (!filter_.kidnapped()) {
@@ -356,6 +359,20 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     }
   }
   return finish(MeasurementUse::kUsed);
+}
+
+void Backend::mapDeferredLandmarks() {
+  const double keep_s =
+      graph_ ? std::max(params_.max_measurement_age_s, params_.map_correction.creation_max_age_s)
+             : params_.max_measurement_age_s;
+  for (const auto& [id, m] : deferred_) {
+    MeasurementUse why = MeasurementUse::kUsed;
+    const std::optional<OdometryAt> then = odometryAt(m.utime, keep_s, &why);
+    if (!then) continue;  // older than the odometry kept: mapped when next seen
+    const UpdateReport u = filter_.update(alignedObservation(m, then->pose));
+    counters_.landmarks_mapped_after_relocalization += u.kind == UpdateKind::kInitialized;
+  }
+  deferred_.clear();
 }
 
 void Backend::calibrate(const MeasurementInput& m, const OdometryAt& then) {

@@ -28,6 +28,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <optional>
 #include <unordered_map>
 
@@ -130,6 +131,9 @@ struct BackendCounters {
   int64_t kidnaps_detected = 0;
   int64_t recoveries = 0;
   int64_t drift_corrections = 0;  // evidence within the drift gate (KidnapParams)
+  // Landmarks first seen while kidnapped, mapped at the relocalization from
+  // their newest measurement carried by the odometry (UpdateReport::deferred).
+  int64_t landmarks_mapped_after_relocalization = 0;
   int64_t resamplings = 0;
   int64_t odometry_steps = 0;
   int64_t odometry_ignored = 0;  // stale, invalid, reset, implausible
@@ -181,6 +185,9 @@ class Backend {
   void addToGraph(const MeasurementInput& m, const OdometryAt& then, bool consistent);
   void correctMap();
   void joinOrBreakAfterKidnap();
+  // At a relocalization: the landmarks first seen while kidnapped, from
+  // their newest measurement moved to now by the odometry since.
+  void mapDeferredLandmarks();
 
   struct HistoryEntry {
     OdometryReading reading;
@@ -198,6 +205,8 @@ class Backend {
   // A measurement the filter found consistent also calibrates the odometry.
   void calibrate(const MeasurementInput& m, const OdometryAt& then);
   int64_t next_solve_utime_ = 0;
+  // Newest measurement of each landmark first seen in this kidnapped period.
+  std::map<int64_t, MeasurementInput> deferred_;
   int64_t graph_measurements_since_solve_ = 0;
   std::unordered_map<int64_t, int64_t> graph_last_used_;  // landmark id -> utime in the graph
   int newest_graph_node_ = -1;      // the newest measurement's node in the graph...

@@ -175,6 +175,21 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const Eigen::Matrix3d r =
       obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
   const auto found = slots_.find(obs.landmark_id);
+  if (found == slots_.end() && kidnapped_) {
+    // A landmark first seen while kidnapped would be placed relative to
+    // wherever each particle happens to be: its next measurements would then
+    // agree with every particle and confirm a relocalization that never
+    // happened (a carried robot that makes new landmarks before it sees an
+    // old one "recovered" where the look-alike that declared the kidnapping
+    // put it). It is mapped at its first measurement after the relocalization.
+    UpdateReport rep;
+    rep.kind = UpdateKind::kKidnapped;
+    rep.deferred = true;
+    rep.agreement = 0;
+    rep.smoothed_agreement = smoothed_agreement_;
+    rep.ess = effectiveSampleSize();
+    return rep;
+  }
   if (found == slots_.end()) {
     const auto slot = static_cast<uint32_t>(ids_.size());
     slots_.emplace(obs.landmark_id, slot);

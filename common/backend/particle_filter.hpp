@@ -188,6 +188,7 @@ struct UpdateReport {
   bool drift_corrected = false;
   bool recovered = false;  // this measurement ended one
   bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
+  bool deferred = false;   // first seen while kidnapped: not mapped until the relocalization
 };
 
 struct PoseEstimate {

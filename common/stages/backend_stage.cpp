@@ -522,6 +522,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("kidnaps_detected", static_cast<double>(c.kidnaps_detected), "count");
   report.add("recoveries", static_cast<double>(c.recoveries), "count");
   report.add("drift_corrections", static_cast<double>(c.drift_corrections), "count");
+  report.add("landmarks_mapped_after_relocalization",
+             static_cast<double>(c.landmarks_mapped_after_relocalization), "count");
   report.add("resamplings", static_cast<double>(c.resamplings), "count");
   report.add("odometry_ignored", static_cast<double>(c.odometry_ignored), "count");
   report.add("position_sigma", std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)), "m");

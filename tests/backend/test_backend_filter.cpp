@@ -982,3 +982,38 @@ TEST(ParticleFilter, AConsistentMeasurementLeftUnusedStillEndsARunOfLookAlikes) 
   EXPECT_EQ(run(true), 0);
   EXPECT_GE(run(false), 1);  // the control
 }
+
+TEST(ParticleFilter, LandmarksFirstSeenWhileKidnappedDoNotConfirmARelocalization) {
+  // Landmarks 1 and 2 are mapped; then the robot is lost. It sees two
+  // landmarks it never saw before (3 and 4), again and again: placed from
+  // wherever the particles happen to be, they would agree with them and
+  // "confirm" any pose. They are left out of the map until the filter has
+  // relocalized on landmarks it knew; landmarks 1 and 2 then confirm it.
+  const auto at = observationAt;
+  FilterParams p = homeParams(50);
+  p.kidnap.recover_landmarks = 2;
+  ParticleFilter pf(p);
+  pf.update(at(1, {1, 0, 0}, 0));  // landmark 1 at (-1, 0, 0)
+  pf.update(at(2, {0, 1, 0}, 0));  // landmark 2 at (0, -1, 0)
+  pf.startKidnapped();
+  for (int k = 1; k <= 8; ++k) {
+    const UpdateReport r = pf.update(at(k % 2 ? 3 : 4, {0.5, 0.1 * k, 0}, 0.5 * k));
+    EXPECT_TRUE(r.deferred);
+    EXPECT_FALSE(r.recovered);
+  }
+  EXPECT_TRUE(pf.kidnapped());
+  EXPECT_EQ(pf.numLandmarks(), 2u);
+  bool recovered = false;
+  for (int k = 0; k < 6 && !recovered; ++k) {
+    const UpdateReport r =
+        pf.update(k % 2 ? at(2, {-3, 1, 0}, 5 + 0.5 * k) : at(1, {-2, 0, 0}, 5 + 0.5 * k));
+    EXPECT_FALSE(r.deferred);
+    recovered = r.recovered;
+  }
+  EXPECT_TRUE(recovered);
+  EXPECT_NEAR(pf.estimate().mean.x, -3.0, 0.2);
+  EXPECT_NEAR(pf.estimate().mean.y, 0.0, 0.2);
+  // Once relocalized, a new landmark is mapped at its first measurement.
+  EXPECT_EQ(pf.update(at(5, {0.5, 0, 0}, 9)).kind, UpdateKind::kInitialized);
+  EXPECT_EQ(pf.numLandmarks(), 3u);
+}

@@ -321,3 +321,50 @@ TEST(BackendMeasurements, MeasurementCovarianceGrowsWithDistance) {
   };
   EXPECT_GT(agreementFor(0.1), agreementFor(0.0));
 }
+
+TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocalization) {
+  // On a circle with exact odometry: landmarks 1 and 2 are mapped, then the
+  // filter is lost. Landmark 3 is first seen while it is: deferred, not
+  // mapped. Landmarks 1 and 2 relocalize it; landmark 3 is then mapped from
+  // its last measurement carried to now by the odometry, where it is: its
+  // next measurement agrees with the particles.
+  BackendParams p = params(50, 0.01);
+  p.filter.kidnap.recover_landmarks = 2;
+  Backend be(p);
+  auto measurement = [](int64_t id, int64_t landmark_seq, int64_t seq) {
+    MeasurementInput m;
+    m.landmark_id = id;
+    m.utime = reading(seq).utime;
+    m.relative = reading(landmark_seq).pose.between(reading(seq).pose);
+    m.proj_err_rms_px = 1;
+    m.num_points = 30;
+    return m;
+  };
+  int64_t seq = 0;
+  auto driveTo = [&](int64_t last) {
+    for (; seq <= last; ++seq) be.addOdometry(reading(seq));
+  };
+  driveTo(50);
+  EXPECT_EQ(be.addMeasurement(measurement(1, 0, 50)).update.kind, UpdateKind::kInitialized);
+  EXPECT_EQ(be.addMeasurement(measurement(2, 25, 50)).update.kind, UpdateKind::kInitialized);
+  be.filter().startKidnapped();
+  for (int64_t s : {110, 130}) {
+    driveTo(s);
+    const MeasurementResult r = be.addMeasurement(measurement(3, 100, s));
+    EXPECT_EQ(r.use, MeasurementUse::kUsed);
+    EXPECT_TRUE(r.update.deferred);
+  }
+  EXPECT_EQ(be.filter().numLandmarks(), 2u);
+  bool recovered = false;
+  for (int64_t s = 150; s < 200 && !recovered; s += 5) {
+    driveTo(s);
+    recovered = be.addMeasurement(measurement(s % 2 ? 1 : 2, s % 2 ? 0 : 25, s)).update.recovered;
+  }
+  ASSERT_TRUE(recovered);
+  EXPECT_EQ(be.counters().landmarks_mapped_after_relocalization, 1);
+  EXPECT_EQ(be.filter().numLandmarks(), 3u);
+  driveTo(220);
+  const MeasurementResult again = be.addMeasurement(measurement(3, 100, 220));
+  EXPECT_EQ(again.update.kind, UpdateKind::kMixture);
+  EXPECT_GT(again.update.agreement, 0.5);
+}
