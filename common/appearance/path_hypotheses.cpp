@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "odometry/motion_model.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::appearance {
 namespace {
@@ -46,14 +47,7 @@ Eigen::Matrix3d ActionErrorModel::covariance(const Pose2& action) const {
                        odometry_translation * odometry_translation * d;
   const double var_r = relative_rotation * relative_rotation * a * a +
                        odometry_rotation * odometry_rotation * (d + a);
-  const double heading = d > 1e-9 ? std::atan2(action.y, action.x) : 0.0;
-  const double c = std::cos(heading), s = std::sin(heading);
-  Eigen::Matrix3d q = Eigen::Matrix3d::Zero();
-  q(0, 0) = c * c * var_t;
-  q(0, 1) = q(1, 0) = c * s * var_t;
-  q(1, 1) = s * s * var_t;
-  q(2, 2) = var_r;
-  return q;
+  return alongTrackCovariance(action, var_t, var_r);
 }
 
 PathNode::~PathNode() {
@@ -109,11 +103,7 @@ void AppearanceSlam::scoreNewState(const Snapshot& z, int64_t new_state) {
   }
   // No state to compare with (the first snapshot): the score does not matter.
   new_state_chi2_ = 1.0;
-  if (!d.empty()) {
-    auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
-    std::nth_element(d.begin(), mid, d.end());
-    new_state_chi2_ = params_.new_state_ratio * *mid;
-  }
+  if (!d.empty()) new_state_chi2_ = params_.new_state_ratio * upperMedian(&d);
   // Nothing to compare (a camera missing on either side): no evidence either way.
   for (double& c : chi2_cache_) {
     if (std::isnan(c)) c = new_state_chi2_;

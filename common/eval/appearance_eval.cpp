@@ -18,8 +18,10 @@
 #include "eval/errors.hpp"
 #include "eval/log_reader.hpp"
 #include "eval/plot.hpp"
+#include "odometry/pose2.hpp"
 #include "util/angles.hpp"
 #include "util/log.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::eval {
 namespace {
@@ -44,23 +46,9 @@ bool truthAt(const std::vector<TruePose>& truth, int64_t utime, TruePose* out) {
   const TruePose& a = *std::prev(it);
   const TruePose& b = *it;
   const double s = static_cast<double>(utime - a.utime) / static_cast<double>(b.utime - a.utime);
-  *out = {utime, a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
-          wrapAngle(a.theta + s * wrapAngle(b.theta - a.theta))};
+  const Pose2 p = interpolate({a.x, a.y, a.theta}, {b.x, b.y, b.theta}, s);
+  *out = {utime, p.x, p.y, p.theta};
   return true;
-}
-
-double mean(const std::vector<double>& v) {
-  if (v.empty()) return kNaN;
-  double s = 0;
-  for (double x : v) s += x;
-  return s / static_cast<double>(v.size());
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 std::string fmt(double v, int decimals = 3) {

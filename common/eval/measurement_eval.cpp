@@ -36,11 +36,7 @@ class PlanarTruth {
     const std::size_t lo = hi - 1;
     const double span = t_[hi] - t_[lo];
     if (span > max_gap_ + 1e-9) return std::nullopt;  // a gap, not the sampling rate
-    const double a = (t - t_[lo]) / span;
-    const Pose2& p = pose_[lo];
-    const Pose2& q = pose_[hi];
-    return Pose2{p.x + a * (q.x - p.x), p.y + a * (q.y - p.y),
-                 wrapAngle(p.theta + a * wrapAngle(q.theta - p.theta))};
+    return interpolate(pose_[lo], pose_[hi], (t - t_[lo]) / span);
   }
 
  private:

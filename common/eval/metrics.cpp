@@ -6,15 +6,10 @@
 #include <sstream>
 
 #include "eval/errors.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::eval {
 namespace {
-
-double medianOf(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 std::string span(const Trajectory& t) {
   std::ostringstream os;
@@ -44,7 +39,7 @@ ErrorStats computeStats(const std::vector<double>& values) {
   double var = 0;
   for (const double v : values) var += (v - s.mean) * (v - s.mean);
   s.std = std::sqrt(var / n);
-  s.median = medianOf(values);
+  s.median = median(values);
   const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
   s.min = *lo;
   s.max = *hi;
@@ -115,7 +110,7 @@ RpeResult computeRpe(const Trajectory& ref, const Trajectory& est, const RpeOpti
 
   std::vector<double> intervals;
   for (std::size_t i = 1; i < ref_t.size(); ++i) intervals.push_back(ref_t[i] - ref_t[i - 1]);
-  r.ref_max_time_diff = 2 * medianOf(intervals);
+  r.ref_max_time_diff = 2 * median(intervals);
 
   std::vector<double> trans, rot;
   const std::size_t last = est.size() - 1;

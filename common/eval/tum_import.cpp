@@ -19,6 +19,7 @@
 #include "eval/tum_file.hpp"
 #include "util/angles.hpp"
 #include "util/log.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::eval {
 namespace {
@@ -241,9 +242,8 @@ ImportStats importTumDataset(const ImportOptions& o) {
   } else if (images.size() > 1) {
     std::vector<double> dt;
     for (std::size_t i = 1; i < images.size(); ++i) dt.push_back(images[i].t - images[i - 1].t);
-    std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-    const double median = dt[dt.size() / 2];
-    stats.frame_rate_hz = median > 0 ? 1.0 / median : 0.0;
+    const double typical = upperMedian(&dt);
+    stats.frame_rate_hz = typical > 0 ? 1.0 / typical : 0.0;
   }
 
   // Extrinsics.

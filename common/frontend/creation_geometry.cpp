@@ -10,6 +10,8 @@
 #include <limits>
 #include <opencv2/calib3d.hpp>
 
+#include "util/statistics.hpp"
+
 namespace vslam::frontend {
 
 Eigen::Vector3d angleAxisFromRotation(const Eigen::Matrix3d& rotation) {
@@ -56,13 +58,6 @@ Eigen::Matrix3d fitRotation(const std::vector<Eigen::Vector3d>& b1,
   return svd.matrixV() * d * svd.matrixU().transpose();
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
-
 }  // namespace
 
 double medianRotationOnlyResidual(const std::vector<Eigen::Vector2d>& x1,
@@ -83,7 +78,8 @@ double medianRotationOnlyResidual(const std::vector<Eigen::Vector2d>& x1,
       const Eigen::Vector3d rb = r * b1[i];
       residual[i] = std::atan2(rb.cross(b2[i]).norm(), rb.dot(b2[i]));
     }
-    med = median(residual);
+    std::vector<double> sorted = residual;
+    med = upperMedian(&sorted);
     for (size_t i = 0; i < n; ++i) use[i] = residual[i] <= 3.0 * med;
   }
   return med;

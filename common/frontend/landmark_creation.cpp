@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "frontend/creation_geometry.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::frontend {
 
@@ -232,8 +233,7 @@ void LandmarkCreator::solve(const ThreeViewObservations& obs, const std::vector<
                 static_cast<double>(ratios.size())));
     return;
   }
-  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
-  diag.relative_scale = ratios[ratios.size() / 2];
+  diag.relative_scale = upperMedian(&ratios);
 
   // (d) initial structure: DLT over the three views.
   ThreeViewModel model;

@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "frontend/creation_geometry.hpp"
+#include "util/statistics.hpp"
 
 namespace vslam::frontend {
 
@@ -67,13 +68,6 @@ const Eigen::Vector2d& observation(const ThreeViewObservations& obs, size_t i, i
 Eigen::Vector3d inView(const ThreeViewModel& model, size_t i, int view) {
   const Eigen::Vector3d& p = model.points[i];
   return view == 0 ? p : view == 1 ? model.cam2_T_cam1 * p : model.cam3_T_cam1 * p;
-}
-
-double medianOf(std::vector<double>* v) {
-  if (v->empty()) return 0.0;
-  const size_t mid = v->size() / 2;
-  std::nth_element(v->begin(), v->begin() + mid, v->end());
-  return (*v)[mid];
 }
 
 }  // namespace
@@ -181,9 +175,10 @@ ThreeViewBaReport threeViewBundleAdjust(const ThreeViewObservations& obs, double
         components.push_back(r.y());
       }
     }
-    const double med = medianOf(&components);
+    if (components.empty()) components.push_back(0.0);  // no residual: the floor below
+    const double med = upperMedian(&components);
     for (double& c : components) c = std::abs(c - med);
-    report.robust_sigma_px = std::max(params.min_sigma_px, 1.4826 * medianOf(&components));
+    report.robust_sigma_px = std::max(params.min_sigma_px, 1.4826 * upperMedian(&components));
     const double limit = params.outlier_sigmas * report.robust_sigma_px;
 
     int dropped = 0;

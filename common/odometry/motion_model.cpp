@@ -4,19 +4,23 @@
 
 namespace vslam {
 
-Eigen::Matrix3d MotionNoise::stepCovariance(const Pose2& step) const {
+Eigen::Matrix3d alongTrackCovariance(const Pose2& step, double var_translation,
+                                     double var_rotation) {
   const double d = std::hypot(step.x, step.y);
-  const double var_t = sigma_translation * sigma_translation * d;
-  const double var_r = sigma_rotation * sigma_rotation * (d + std::abs(step.theta));
-  // Translation error along the direction of travel (the chord of the step).
   const double heading = d > 1e-9 ? std::atan2(step.y, step.x) : 0.0;
   const double c = std::cos(heading), s = std::sin(heading);
   Eigen::Matrix3d q = Eigen::Matrix3d::Zero();
-  q(0, 0) = c * c * var_t;
-  q(0, 1) = q(1, 0) = c * s * var_t;
-  q(1, 1) = s * s * var_t;
-  q(2, 2) = var_r;
+  q(0, 0) = c * c * var_translation;
+  q(0, 1) = q(1, 0) = c * s * var_translation;
+  q(1, 1) = s * s * var_translation;
+  q(2, 2) = var_rotation;
   return q;
+}
+
+Eigen::Matrix3d MotionNoise::stepCovariance(const Pose2& step) const {
+  const double d = std::hypot(step.x, step.y);
+  return alongTrackCovariance(step, sigma_translation * sigma_translation * d,
+                              sigma_rotation * sigma_rotation * (d + std::abs(step.theta)));
 }
 
 Pose2 MotionNoise::perturb(const Pose2& step, double n_translation, double n_rotation) const {

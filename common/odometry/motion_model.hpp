@@ -26,6 +26,12 @@
 
 namespace vslam {
 
+// Covariance of a step's (dx, dy, dtheta) in the robot frame at its start
+// whose translation errs along the direction of travel (the chord of the
+// step) with variance var_translation, and whose heading with var_rotation.
+Eigen::Matrix3d alongTrackCovariance(const Pose2& step, double var_translation,
+                                     double var_rotation);
+
 struct MotionNoise {
   double sigma_translation = 0.0;  // sigma_T, m / sqrt(m)
   double sigma_rotation = 0.0;     // sigma_R, rad / sqrt(m or rad)

@@ -30,4 +30,19 @@ struct Pose2 {
   Eigen::Vector3d vector() const { return {x, y, theta}; }
 };
 
+// The pose a fraction s (0..1) of the way from a to b. Two ways, as the
+// samples are meant:
+// - between poses of a trajectory sampled in time (ground truth, a rendered
+//   path): x, y and theta each linearly, theta the short way round;
+inline Pose2 interpolate(const Pose2& a, const Pose2& b, double s) {
+  return {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
+          wrapAngle(a.theta + s * wrapAngle(b.theta - a.theta))};
+}
+// - between two odometry readings: that fraction of the motion from a to
+//   b, in a's frame (the robot drove it).
+inline Pose2 interpolateMotion(const Pose2& a, const Pose2& b, double s) {
+  const Pose2 d = a.between(b);
+  return a.compose({s * d.x, s * d.y, s * d.theta});
+}
+
 }  // namespace vslam

@@ -183,10 +183,7 @@ Pose2 Trajectory::at(double t) const {
   const size_t i =
       static_cast<size_t>(std::upper_bound(stamps_.begin(), stamps_.end(), t) - stamps_.begin());
   const double a = (t - stamps_[i - 1]) / (stamps_[i] - stamps_[i - 1]);
-  const Pose2& p = poses_[i - 1];
-  const Pose2& q = poses_[i];
-  return {p.x + a * (q.x - p.x), p.y + a * (q.y - p.y),
-          wrapAngle(p.theta + a * wrapAngle(q.theta - p.theta))};
+  return interpolate(poses_[i - 1], poses_[i], a);
 }
 
 TrajectoryDriver::TrajectoryDriver(Trajectory trajectory)

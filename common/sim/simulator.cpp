@@ -29,11 +29,6 @@ Eigen::Isometry3d worldTRobot(const Pose2& p) {
   return t;
 }
 
-Pose2 interpolate(const Pose2& a, const Pose2& b, double s) {
-  return {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y),
-          wrapAngle(a.theta + s * wrapAngle(b.theta - a.theta))};
-}
-
 uint64_t mixSeed(uint64_t a, uint64_t b) {
   // splitmix64 step: distinct, well-spread noise seeds per camera and frame.
   uint64_t z = a + 0x9e3779b97f4a7c15ULL * (b + 1);

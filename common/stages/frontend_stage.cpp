@@ -163,8 +163,7 @@ bool FrontendStage::odometryAt(Utime t, Pose2* pose) {
   const auto before = std::prev(after);
   const double s =
       static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
-  const Pose2 step = before->second.between(after->second);
-  *pose = before->second.compose({s * step.x, s * step.y, s * step.theta});
+  *pose = interpolateMotion(before->second, after->second, s);
   return true;
 }
 

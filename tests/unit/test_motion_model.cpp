@@ -1,10 +1,13 @@
-// Odometry increments and the motion noise model against hand-computed values.
+// Poses, odometry, motion noise and small statistics against hand-computed values.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <random>
+#include <vector>
 
 #include "odometry/motion_model.hpp"
+#include "util/statistics.hpp"
 
 using vslam::OdometryIncrements;
 using vslam::Pose2;
@@ -25,6 +28,43 @@ TEST(Pose2, ComposeAndBetweenAreInverse) {
   // Wrapping across +-pi.
   const Pose2 wrapped = Pose2{0, 0, 3.0}.compose(Pose2{0, 0, 0.5});
   EXPECT_NEAR(wrapped.theta, 3.5 - 2 * M_PI, 1e-12);
+}
+
+TEST(Pose2, InterpolationOfSamplesAndOfMotion) {
+  // Samples of a trajectory: each coordinate linearly, the heading the short
+  // way round across +-pi.
+  const Pose2 a{0, 0, 3.0}, b{2, -4, -3.0};
+  const Pose2 half = vslam::interpolate(a, b, 0.5);
+  EXPECT_NEAR(half.x, 1, 1e-12);
+  EXPECT_NEAR(half.y, -2, 1e-12);
+  EXPECT_NEAR(std::abs(half.theta), M_PI, 1e-12);
+  EXPECT_NEAR(vslam::interpolate(a, b, 0.0).theta, 3.0, 1e-12);
+  EXPECT_NEAR(vslam::interpolate(a, b, 1.0).theta, -3.0, 1e-12);
+  // Motion between odometry readings: the fraction of the step in a's frame,
+  // so a robot that turned 90 degrees while driving 1 m along its heading
+  // from a heading of 90 degrees is half-way at (0, 0.5), 45 degrees turned.
+  const Pose2 from{0, 0, M_PI / 2}, to = from.compose({1, 0, M_PI / 2});
+  const Pose2 mid = vslam::interpolateMotion(from, to, 0.5);
+  EXPECT_NEAR(mid.x, 0, 1e-12);
+  EXPECT_NEAR(mid.y, 0.5, 1e-12);
+  EXPECT_NEAR(mid.theta, 3 * M_PI / 4, 1e-12);
+  const Pose2 end = vslam::interpolateMotion(from, to, 1.0);
+  EXPECT_NEAR(end.x, to.x, 1e-12);
+  EXPECT_NEAR(end.y, to.y, 1e-12);
+}
+
+TEST(Statistics, MedianUpperMedianAndMean) {
+  EXPECT_DOUBLE_EQ(vslam::median({3, 1, 2}), 2);
+  EXPECT_DOUBLE_EQ(vslam::median({4, 1, 3, 2}), 2.5);
+  std::vector<double> v{4, 1, 3, 2};
+  EXPECT_DOUBLE_EQ(vslam::upperMedian(&v), 3);  // one of the samples
+  std::vector<double> odd{5, 9, 1};
+  EXPECT_DOUBLE_EQ(vslam::upperMedian(&odd), 5);
+  EXPECT_DOUBLE_EQ(vslam::mean({1, 2, 6}), 3);
+  std::vector<double> none;
+  EXPECT_TRUE(std::isnan(vslam::upperMedian(&none)));
+  EXPECT_TRUE(std::isnan(vslam::median({})));
+  EXPECT_TRUE(std::isnan(vslam::mean({})));
 }
 
 TEST(OdometryIncrements, LostMessagesLoseNoMotion) {
