@@ -1,6 +1,10 @@
 #include "bus/messages.hpp"
 
+#include <unistd.h>
+
 #include <Eigen/Geometry>
+
+#include "util/process.hpp"
 
 namespace vslam::bus {
 
@@ -26,6 +30,30 @@ vslam::camera_calibration_t calibrationMessage(const config::CameraConfig& c, Ut
   m.robot_q_camera[2] = q.y();
   m.robot_q_camera[3] = q.z();
   return m;
+}
+
+vslam::health_t healthMessage(const std::string& process, const std::string& instance, Utime utime,
+                              Utime started_monotonic, const HealthReport& report) {
+  vslam::health_t msg{};
+  msg.utime = utime;
+  msg.process = process;
+  msg.instance = instance;
+  msg.pid = static_cast<int32_t>(getpid());
+  msg.uptime = toSeconds(monotonicUtime() - started_monotonic);
+  msg.level = static_cast<int8_t>(report.level);
+  msg.message = report.message;
+  const ResourceUsage usage = currentResourceUsage();
+  msg.cpu_seconds = usage.cpu_seconds;
+  msg.rss_bytes = usage.rss_bytes;
+  for (const auto& m : report.metrics) {
+    vslam::health_metric_t hm;
+    hm.name = m.name;
+    hm.value = m.value;
+    hm.unit = m.unit;
+    msg.metrics.push_back(hm);
+  }
+  msg.num_metrics = static_cast<int32_t>(msg.metrics.size());
+  return msg;
 }
 
 }  // namespace vslam::bus

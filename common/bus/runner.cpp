@@ -4,6 +4,7 @@
 
 #include <vslam/health_t.hpp>
 
+#include "bus/messages.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
 
@@ -111,30 +112,13 @@ void StageRunner::publishHealth(Entry& e, Utime now) {
   e.last_per_channel = per_channel;
   e.last_health = now;
 
-  vslam::health_t msg;
-  msg.utime = now;
-  msg.process = options_.process_name;
-  msg.instance = e.instance;
-  msg.pid = static_cast<int32_t>(getpid());
-  msg.uptime = toSeconds(monotonicUtime() - started_monotonic_);
-  msg.level = static_cast<int8_t>(report.level);
-  msg.message = report.message;
-  const ResourceUsage usage = currentResourceUsage();
-  msg.cpu_seconds = usage.cpu_seconds;
-  msg.rss_bytes = usage.rss_bytes;
+  vslam::health_t msg =
+      healthMessage(options_.process_name, e.instance, now, started_monotonic_, report);
   msg.messages_received = c.received.load();
   msg.messages_published = c.published.load();
   msg.messages_dropped = c.dropped.load();
   msg.messages_malformed = c.malformed.load();
   msg.handler_latency_ms = e.bus->takeMeanLatencyMs();
-  for (const auto& m : report.metrics) {
-    vslam::health_metric_t hm;
-    hm.name = m.name;
-    hm.value = m.value;
-    hm.unit = m.unit;
-    msg.metrics.push_back(hm);
-  }
-  msg.num_metrics = static_cast<int32_t>(msg.metrics.size());
   e.bus->publish(options_.health_channel, msg);
 }
 

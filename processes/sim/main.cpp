@@ -11,6 +11,7 @@
 #include <vslam/health_t.hpp>
 
 #include "bus/health_barrier.hpp"
+#include "bus/messages.hpp"
 #include "bus/process_main.hpp"
 #include "config/stack_config.hpp"
 #include "sim/simulator.hpp"
@@ -233,27 +234,16 @@ int main(int argc, char** argv) {
       while (!stopRequested() && simulator->step(sink)) {
         if (monotonicUtime() >= next_health) {
           const auto& s = simulator->stats();
-          vslam::health_t h{};
-          h.utime = wallUtime();
-          h.process = "vslam-sim";
-          h.instance = instance;
-          h.pid = static_cast<int32_t>(getpid());
-          h.uptime = toSeconds(monotonicUtime() - wall_start);
-          const ResourceUsage usage = currentResourceUsage();
-          h.cpu_seconds = usage.cpu_seconds;
-          h.rss_bytes = usage.rss_bytes;
+          bus::HealthReport report;
+          if (sink.lagMs() > 100) report.warn("cannot keep up with real time");
+          report.add("frames_per_second", static_cast<double>(s.frames - frames_at_health), "Hz");
+          report.add("render_ms_mean",
+                     s.frames ? s.render_ms_total / static_cast<double>(s.frames) : 0, "ms");
+          report.add("sim_time", simulator->simTime(), "s");
+          report.add("lag", sink.lagMs(), "ms");
+          vslam::health_t h =
+              bus::healthMessage("vslam-sim", instance, wallUtime(), wall_start, report);
           h.messages_published = sink.published();
-          h.level = sink.lagMs() > 100 ? vslam::health_t::LEVEL_WARN : vslam::health_t::LEVEL_OK;
-          if (h.level) h.message = "cannot keep up with real time";
-          auto metric = [&](const char* name, double v, const char* unit) {
-            h.metrics.push_back(vslam::health_metric_t{name, v, unit});
-          };
-          metric("frames_per_second", static_cast<double>(s.frames - frames_at_health), "Hz");
-          metric("render_ms_mean", s.frames ? s.render_ms_total / static_cast<double>(s.frames) : 0,
-                 "ms");
-          metric("sim_time", simulator->simTime(), "s");
-          metric("lag", sink.lagMs(), "ms");
-          h.num_metrics = static_cast<int32_t>(h.metrics.size());
           std::vector<uint8_t> buf(static_cast<size_t>(h.getEncodedSize()));
           h.encode(buf.data(), 0, static_cast<int>(buf.size()));
           lcm.publish(stack.robot.channels.health, buf.data(), static_cast<unsigned>(buf.size()));
