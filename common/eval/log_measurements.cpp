@@ -10,14 +10,10 @@
 
 namespace vslam::eval {
 
-// Verdicts are cast between the three enumerations; they must stay equal.
+// A message's status is cast to the verdict; the codes must stay equal.
 static_assert(static_cast<int>(MeasurementVerdict::kAccepted) ==
-                  static_cast<int>(frontend::MeasurementStatus::kAccepted) &&
-              static_cast<int>(MeasurementVerdict::kInvalid) ==
-                  static_cast<int>(frontend::MeasurementStatus::kRejectedInvalid) &&
-              static_cast<int>(MeasurementVerdict::kAccepted) ==
                   vslam::visual_measurement_t::STATUS_ACCEPTED &&
-              static_cast<int>(MeasurementVerdict::kInvalid) ==
+              static_cast<int>(MeasurementVerdict::kRejectedInvalid) ==
                   vslam::visual_measurement_t::STATUS_REJECTED_INVALID);
 
 MeasurementLog readMeasurementLog(const std::filesystem::path& log,
@@ -47,12 +43,12 @@ MeasurementLog readMeasurementLog(const std::filesystem::path& log,
         pm.proj_err_rms_px = m.proj_err_rms;
         pm.num_points = m.num_points;
         pm.slope = m.slope;
-        s.verdict = static_cast<MeasurementVerdict>(frontend::prefilter(pm, options.prefilter));
+        s.verdict = frontend::prefilter(pm, options.prefilter);
       } else if (m.status >= vslam::visual_measurement_t::STATUS_ACCEPTED &&
                  m.status <= vslam::visual_measurement_t::STATUS_REJECTED_INVALID) {
         s.verdict = static_cast<MeasurementVerdict>(m.status);
       } else {
-        s.verdict = MeasurementVerdict::kInvalid;
+        s.verdict = MeasurementVerdict::kRejectedInvalid;
       }
       out.samples.push_back(std::move(s));
     } else if (std::find(landmark_channels.begin(), landmark_channels.end(), channel) !=

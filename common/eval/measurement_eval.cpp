@@ -70,22 +70,6 @@ std::string edge(double cm) { return fmt("%g", cm); }
 
 }  // namespace
 
-const char* toString(MeasurementVerdict v) {
-  switch (v) {
-    case MeasurementVerdict::kAccepted:
-      return "accepted";
-    case MeasurementVerdict::kProjErr:
-      return "rejected: ProjErrRMS";
-    case MeasurementVerdict::kNumPoints:
-      return "rejected: NPoints";
-    case MeasurementVerdict::kSlope:
-      return "rejected: Slope";
-    case MeasurementVerdict::kInvalid:
-      return "rejected: invalid";
-  }
-  return "?";
-}
-
 int64_t MeasurementReport::acceptedCount() const {
   const auto it = verdicts.find(MeasurementVerdict::kAccepted);
   return it == verdicts.end() ? 0 : it->second;

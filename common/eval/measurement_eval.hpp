@@ -22,21 +22,15 @@
 #include <string>
 #include <vector>
 
+#include "backend/prefilter.hpp"
 #include "eval/metrics.hpp"
 #include "eval/trajectory.hpp"
 
 namespace vslam::eval {
 
-// Verdict codes, as vslam.visual_measurement_t STATUS_* (1 accepted, 2-5
-// rejected by ProjErrRMS, NPoints, Slope, invalid).
-enum class MeasurementVerdict {
-  kAccepted = 1,
-  kProjErr = 2,
-  kNumPoints = 3,
-  kSlope = 4,
-  kInvalid = 5
-};
-const char* toString(MeasurementVerdict v);
+// A measurement's verdict is the pre-filter's (backend/prefilter.hpp, the
+// same codes as vslam.visual_measurement_t STATUS_*); never kUnfiltered here.
+using MeasurementVerdict = backend::MeasurementStatus;
 
 struct MeasurementSample {
   double t = 0;  // seconds, image time

@@ -87,12 +87,12 @@ TEST(MeasurementEval, HeadingErrorWrapsAroundPi) {
 TEST(MeasurementEval, BandsCountAcceptedAndRejectedByXyError) {
   using V = MeasurementVerdict;
   std::vector<MeasurementSample> s = {
-      sample(5, 0.05, 0, 0),                 // 5 cm, accepted: band 0-10
-      sample(6, 0.09, 0, 0, V::kNumPoints),  // 9 cm, rejected: band 0-10
-      sample(7, 0.15, 0, 0),                 // 15 cm: 10-20
-      sample(8, 0.0, 0.55, 0, V::kSlope),    // 55 cm: 50-70
-      sample(9, 2.5, 0, 0),                  // 250 cm: > 200
-      sample(10, 0.105, 0, 0),               // 10.5 cm: 10-20
+      sample(5, 0.05, 0, 0),                         // 5 cm, accepted: band 0-10
+      sample(6, 0.09, 0, 0, V::kRejectedNumPoints),  // 9 cm, rejected: band 0-10
+      sample(7, 0.15, 0, 0),                         // 15 cm: 10-20
+      sample(8, 0.0, 0.55, 0, V::kRejectedSlope),    // 55 cm: 50-70
+      sample(9, 2.5, 0, 0),                          // 250 cm: > 200
+      sample(10, 0.105, 0, 0),                       // 10.5 cm: 10-20
   };
   const MeasurementReport r = evaluateMeasurements(lineAlongY(), s, kCreations);
   ASSERT_EQ(r.bands.size(), 10u);
@@ -104,7 +104,7 @@ TEST(MeasurementEval, BandsCountAcceptedAndRejectedByXyError) {
   EXPECT_TRUE(std::isinf(r.bands[9].high_cm));
   EXPECT_EQ(r.acceptedCount(), 4);
   EXPECT_NEAR(r.acceptedFraction(), 4.0 / 6.0, 1e-12);
-  EXPECT_EQ(r.verdicts.at(V::kNumPoints), 1);
+  EXPECT_EQ(r.verdicts.at(V::kRejectedNumPoints), 1);
   EXPECT_EQ(r.all.xy_m.count, 6u);
   EXPECT_EQ(r.accepted.xy_m.count, 4u);
 
@@ -181,9 +181,9 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   const MeasurementLog m = readMeasurementLog(path, options);
   ASSERT_EQ(m.samples.size(), 5u);
   EXPECT_EQ(m.samples[0].verdict, MeasurementVerdict::kAccepted);
-  EXPECT_EQ(m.samples[1].verdict, MeasurementVerdict::kProjErr);
-  EXPECT_EQ(m.samples[2].verdict, MeasurementVerdict::kNumPoints);
-  EXPECT_EQ(m.samples[3].verdict, MeasurementVerdict::kSlope);
+  EXPECT_EQ(m.samples[1].verdict, MeasurementVerdict::kRejectedProjErr);
+  EXPECT_EQ(m.samples[2].verdict, MeasurementVerdict::kRejectedNumPoints);
+  EXPECT_EQ(m.samples[3].verdict, MeasurementVerdict::kRejectedSlope);
   EXPECT_EQ(m.samples[4].verdict, MeasurementVerdict::kAccepted);
   ASSERT_EQ(m.creations.count(7), 1u);
   EXPECT_DOUBLE_EQ(m.creations.at(7).t, 2.0);
@@ -192,7 +192,8 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   EXPECT_NEAR(r.accepted.xy_m.median, 0.02, 1e-6);
 
   options.rejudge = true;  // the region applies to the judged one too
-  EXPECT_EQ(readMeasurementLog(path, options).samples[4].verdict, MeasurementVerdict::kSlope);
+  EXPECT_EQ(readMeasurementLog(path, options).samples[4].verdict,
+            MeasurementVerdict::kRejectedSlope);
   options.prefilter.max_slope = 0.5;  // a wider region
   EXPECT_EQ(readMeasurementLog(path, options).samples[3].verdict, MeasurementVerdict::kAccepted);
 
