@@ -60,15 +60,7 @@ void LockstepReplay::onAnyMessage(const lcm::ReceiveBuffer* rbuf, const std::str
   if (!out_) return;
   if (is_input && !options_.keep_inputs) return;
   if (!is_input && !options_.keep_health && channel == options_.health_channel) return;
-  lcm::LogEvent ev;
-  ev.eventnum = out_eventnum_++;
-  ev.timestamp = clock_.now();
-  ev.channel = channel;
-  ev.datalen = static_cast<int32_t>(rbuf->data_size);
-  ev.data = rbuf->data;
-  if (out_->writeEvent(&ev) != 0) {
-    throw std::runtime_error("cannot write to " + options_.output.string());
-  }
+  out_->write(clock_.now(), channel, rbuf->data, rbuf->data_size);
   ++stats_.events_written;
 }
 
@@ -91,8 +83,7 @@ ReplayStats LockstepReplay::run() {
   lcm::LogFile in(options_.input.string(), "r");
   if (!in.good()) throw std::runtime_error("cannot open input log " + options_.input.string());
   if (!options_.output.empty()) {
-    out_ = std::make_unique<lcm::LogFile>(options_.output.string(), "w");
-    if (!out_->good()) throw std::runtime_error("cannot create " + options_.output.string());
+    out_ = std::make_unique<LogWriter>(options_.output);
   }
   lcm_->subscribeFunction(
       ".*",

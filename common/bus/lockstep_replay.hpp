@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bus/log_writer.hpp"
 #include "bus/runner.hpp"
 
 namespace vslam::bus {
@@ -66,10 +67,9 @@ class LockstepReplay {
   ManualClock clock_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<StageRunner> runner_;
-  std::unique_ptr<lcm::LogFile> out_;
+  std::unique_ptr<LogWriter> out_;
   bool next_is_input_ = false;
   bool ran_ = false;
-  int64_t out_eventnum_ = 0;
   ReplayStats stats_;
 };
 

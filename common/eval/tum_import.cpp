@@ -13,6 +13,7 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/log_writer.hpp"
 #include "bus/messages.hpp"
 #include "config/robot_config.hpp"
 #include "eval/errors.hpp"
@@ -127,27 +128,6 @@ struct Pending {
   int64_t utime;
   Kind kind;
   std::size_t index;
-};
-
-class LogWriter {
- public:
-  explicit LogWriter(const fs::path& file) : file_(file), log_(file.string(), "w") {
-    if (!log_.good()) throw DataError(file.string() + ": cannot create the log");
-  }
-  void write(int64_t utime, const std::string& channel, const std::vector<uint8_t>& data) {
-    lcm::LogEvent ev;
-    ev.eventnum = eventnum_++;
-    ev.timestamp = utime;
-    ev.channel = channel;
-    ev.datalen = static_cast<int32_t>(data.size());
-    ev.data = const_cast<uint8_t*>(data.data());
-    if (log_.writeEvent(&ev) != 0) throw DataError(file_.string() + ": write failed (disk full?)");
-  }
-
- private:
-  fs::path file_;
-  lcm::LogFile log_;
-  int64_t eventnum_ = 0;
 };
 
 // Removes the partial output unless released.
@@ -296,7 +276,7 @@ ImportStats importTumDataset(const ImportOptions& o) {
   const fs::path tmp = o.output.string() + ".partial";
   PartialFile guard(tmp);
   {
-    LogWriter log(tmp);
+    bus::LogWriter log(tmp);
     double odo_distance = 0, odo_rotation = 0;
     for (const Pending& ev : schedule) {
       switch (ev.kind) {

@@ -39,19 +39,10 @@ uint64_t mixSeed(uint64_t a, uint64_t b) {
 
 }  // namespace
 
-LogFileSink::LogFileSink(const std::string& path) : log_(path, "w") {
-  if (!log_.good()) throw std::runtime_error("cannot create log file " + path);
-}
+LogFileSink::LogFileSink(const std::string& path) : log_(path) {}
 
 void LogFileSink::write(Utime t, const std::string& channel, const void* data, size_t size) {
-  lcm::LogEvent ev;
-  ev.eventnum = eventnum_++;
-  ev.timestamp = t;
-  ev.channel = channel;
-  ev.datalen = static_cast<int32_t>(size);
-  ev.data = const_cast<void*>(data);
-  if (log_.writeEvent(&ev) != 0)
-    throw std::runtime_error("cannot write to the log file (disk full?)");
+  log_.write(t, channel, data, size);
 }
 
 struct Simulator::Camera {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bus/log_writer.hpp"
 #include "config/robot_config.hpp"
 #include "odometry/pose2.hpp"
 #include "sim/motion.hpp"
@@ -35,8 +36,7 @@ class LogFileSink final : public EventSink {
   void write(Utime t, const std::string& channel, const void* data, size_t size) override;
 
  private:
-  lcm::LogFile log_;
-  int64_t eventnum_ = 0;
+  bus::LogWriter log_;
 };
 
 struct SimulatorStats {

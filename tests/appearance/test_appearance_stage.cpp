@@ -20,6 +20,7 @@
 #include <vslam/odometry_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
+#include "bus/log_writer.hpp"
 #include "eval/appearance_eval.hpp"
 #include "odometry/pose2.hpp"
 #include "sim/simulator.hpp"
@@ -116,8 +117,7 @@ void writeCarriedLog(const fs::path& input, const fs::path& output, double from,
   ASSERT_TRUE(before && after);
   const Pose2 o1{before->x, before->y, before->theta};
   const Pose2 o2{after->x, after->y, after->theta};
-  lcm::LogFile log(output.string(), "w");
-  int64_t n = 0;
+  vslam::bus::LogWriter log(output);
   for (const auto& e : events) {
     if (e.timestamp >= t1 && e.timestamp < t2) continue;
     std::vector<uint8_t> data = e.data;
@@ -132,13 +132,7 @@ void writeCarriedLog(const fs::path& input, const fs::path& output, double from,
       data.resize(static_cast<size_t>(m.getEncodedSize()));
       m.encode(data.data(), 0, static_cast<int>(data.size()));
     }
-    lcm::LogEvent ev;
-    ev.eventnum = n++;
-    ev.timestamp = e.timestamp;
-    ev.channel = e.channel;
-    ev.datalen = static_cast<int32_t>(data.size());
-    ev.data = data.data();
-    ASSERT_EQ(log.writeEvent(&ev), 0);
+    log.write(e.timestamp, e.channel, data);
   }
 }
 
@@ -245,18 +239,9 @@ TEST(AppearanceStage, SkipsBadInputAndKeepsRunning) {
   const fs::path dir = vslam::test::scratchDir("appearance_bad_input");
   const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
   {
-    lcm::LogFile log((dir / "bad.lcmlog").string(), "w");
-    int64_t eventnum = 0;
+    vslam::bus::LogWriter log(dir / "bad.lcmlog");
     const auto write = [&](int64_t t, const std::string& channel, const auto& msg) {
-      std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      lcm::LogEvent ev;
-      ev.eventnum = eventnum++;
-      ev.timestamp = t;
-      ev.channel = channel;
-      ev.datalen = static_cast<int32_t>(buf.size());
-      ev.data = buf.data();
-      ASSERT_EQ(log.writeEvent(&ev), 0);
+      log.writeMessage(t, channel, msg);
     };
     cv::Mat texture(240, 320, CV_8UC1);
     cv::RNG rng(3);

@@ -22,6 +22,7 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
+#include "bus/log_writer.hpp"
 #include "landmark_db/landmark_store.hpp"
 #include "stages/backend_stage.hpp"
 #include "stages/builtin_stages.hpp"
@@ -34,27 +35,6 @@ namespace fs = std::filesystem;
 using namespace vslam;
 
 namespace {
-
-class LogWriter {
- public:
-  explicit LogWriter(const fs::path& file) : log_(file.string(), "w") {}
-  template <class Msg>
-  void write(int64_t t, const std::string& channel, const Msg& msg) {
-    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    lcm::LogEvent ev;
-    ev.eventnum = eventnum_++;
-    ev.timestamp = t;
-    ev.channel = channel;
-    ev.datalen = static_cast<int32_t>(buf.size());
-    ev.data = buf.data();
-    ASSERT_EQ(log_.writeEvent(&ev), 0);
-  }
-
- private:
-  lcm::LogFile log_;
-  int64_t eventnum_ = 0;
-};
 
 template <class Msg>
 Msg decode(const vslam::test::RecordedEvent& e) {
@@ -196,14 +176,14 @@ TEST(BackendStage, EstimatesPoseAndFiltersMeasurementsOverLcm) {
     for (const auto& m : due_it->second) events.push_back(measurementEvent(due_it->first, m));
   }
   {
-    LogWriter log(dir / "in.lcmlog");
+    bus::LogWriter log(dir / "in.lcmlog");
     for (const Event& e : events) {
       if (e.odometry) {
-        log.write(e.t, "ODOMETRY", e.o);
+        log.writeMessage(e.t, "ODOMETRY", e.o);
       } else if (e.created) {
-        log.write(e.t, "LANDMARK_UPDATE", *e.created);
+        log.writeMessage(e.t, "LANDMARK_UPDATE", *e.created);
       } else {
-        log.write(e.t, "VISUAL_MEASUREMENT", e.m);
+        log.writeMessage(e.t, "VISUAL_MEASUREMENT", e.m);
       }
     }
   }
@@ -603,14 +583,14 @@ TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
   const int64_t t0 = 1767225600LL * kMicrosPerSecond;
   auto seconds = [&](double s) { return t0 + static_cast<int64_t>(s * 1e6); };
   {
-    LogWriter log(dir / "in.lcmlog");
+    bus::LogWriter log(dir / "in.lcmlog");
     int64_t seq = 0;
     auto odometry = [&](double s) {
       vslam::odometry_t o{};
       o.utime = seconds(s);
       o.seq = seq++;
       o.x = 0.1 * s;
-      log.write(o.utime, "ODOMETRY", o);
+      log.writeMessage(o.utime, "ODOMETRY", o);
     };
     for (double s = 0; s < 3.0; s += 0.02) odometry(s);
     for (double s = 3.0; s < 9.0; s += 0.1) {  // odometry quiet; measurements go on
@@ -621,7 +601,7 @@ TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
       m.num_points = 25;
       m.proj_err_rms = 0.5;
       m.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
-      log.write(m.utime, "VISUAL_MEASUREMENT", m);
+      log.writeMessage(m.utime, "VISUAL_MEASUREMENT", m);
     }
     for (double s = 9.0; s < 12.0; s += 0.02) odometry(s);
   }

@@ -1,7 +1,7 @@
 #pragma once
-// Helpers for the evaluation tests: writing and reading small LCM logs,
-// running the built programs, scratch folders. Self-contained (no
-// vslam_test_support) so these tests build on their own.
+// Helpers for the evaluation tests: reading small LCM logs (written with
+// bus::LogWriter), running the built programs, scratch folders. Without
+// vslam_test_support, so these tests build on their own.
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,30 +16,9 @@
 #include <string>
 #include <vector>
 
+#include "bus/log_writer.hpp"
+
 namespace vslam::test {
-
-class LogBuilder {
- public:
-  explicit LogBuilder(const std::filesystem::path& file) : log_(file.string(), "w") {
-    if (!log_.good()) throw std::runtime_error("cannot create " + file.string());
-  }
-  template <class Msg>
-  void add(int64_t timestamp, const std::string& channel, const Msg& msg) {
-    std::vector<uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
-    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    lcm::LogEvent ev;
-    ev.eventnum = eventnum_++;
-    ev.timestamp = timestamp;
-    ev.channel = channel;
-    ev.datalen = static_cast<int32_t>(buf.size());
-    ev.data = buf.data();
-    if (log_.writeEvent(&ev) != 0) throw std::runtime_error("cannot write test log");
-  }
-
- private:
-  lcm::LogFile log_;
-  int64_t eventnum_ = 0;
-};
 
 struct LoggedEvent {
   int64_t timestamp;

@@ -21,7 +21,6 @@ namespace fs = std::filesystem;
 using vslam::test::contains;
 using vslam::test::JsonParser;
 using vslam::test::JsonValue;
-using vslam::test::LogBuilder;
 using vslam::test::runProgram;
 
 namespace {
@@ -39,7 +38,7 @@ struct DriveLog {
 
 // A robot driving a circle of radius 1.5 m at 0.3 m/s; messages at 50 Hz.
 void writeDriveLog(const fs::path& file, const DriveLog& d) {
-  LogBuilder log(file);
+  vslam::bus::LogWriter log(file);
   const double v = 0.3, r = 1.5;
   for (int i = 0; i <= d.seconds * 50; ++i) {
     const int64_t t = kT0 + i * 20000;
@@ -52,7 +51,7 @@ void writeDriveLog(const fs::path& file, const DriveLog& d) {
     gt.x = x;
     gt.y = y;
     gt.theta = heading;
-    log.add(t + 100, "GROUND_TRUTH", gt);
+    log.writeMessage(t + 100, "GROUND_TRUTH", gt);
     if (d.odometry) {
       vslam::odometry_t o{};
       o.utime = t;
@@ -61,7 +60,7 @@ void writeDriveLog(const fs::path& file, const DriveLog& d) {
       o.y = y;
       o.theta = heading;
       o.distance = v * s;
-      log.add(t + 50, "ODOMETRY", o);
+      log.writeMessage(t + 50, "ODOMETRY", o);
     }
     auto estimate = [&](double dx, double dy, int64_t delay) {
       vslam::pose_estimate_t e{};
@@ -74,9 +73,9 @@ void writeDriveLog(const fs::path& file, const DriveLog& d) {
       return e;
     };
     if (d.pose_odometry) {
-      log.add(t + 200, "POSE_ODOMETRY", estimate(0.1, 0.0, d.odometry_delay_us));
+      log.writeMessage(t + 200, "POSE_ODOMETRY", estimate(0.1, 0.0, d.odometry_delay_us));
     }
-    if (d.pose_estimate) log.add(t + 300, "POSE_ESTIMATE", estimate(0.0, 0.05, 0));
+    if (d.pose_estimate) log.writeMessage(t + 300, "POSE_ESTIMATE", estimate(0.0, 0.05, 0));
     if (d.map && i % 50 == 0) {
       vslam::map_t m{};
       m.utime = t;
@@ -91,7 +90,7 @@ void writeDriveLog(const fs::path& file, const DriveLog& d) {
         m.landmarks.push_back(l);
       }
       m.num_landmarks = static_cast<int32_t>(m.landmarks.size());
-      log.add(t + 400, "MAP", m);
+      log.writeMessage(t + 400, "MAP", m);
     }
   }
 }

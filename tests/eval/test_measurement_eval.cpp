@@ -141,9 +141,9 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   const auto dir = vslam::test::freshDir("measurement_eval");
   const auto path = dir / "run.lcmlog";
   {
-    vslam::test::LogBuilder log(path);
+    vslam::bus::LogWriter log(path);
     auto write = [&](const std::string& channel, const auto& msg, int64_t utime) {
-      log.add(utime, channel, msg);
+      log.writeMessage(utime, channel, msg);
     };
     for (const auto& p : lineAlongY().poses) {
       vslam::ground_truth_pose_t g{};

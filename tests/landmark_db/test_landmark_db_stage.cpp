@@ -17,6 +17,7 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
+#include "bus/log_writer.hpp"
 #include "landmark_db/landmark_store.hpp"
 #include "landmark_db_test_util.hpp"
 #include "sim/simulator.hpp"
@@ -39,27 +40,6 @@ Msg decode(const vslam::test::RecordedEvent& e) {
             static_cast<int>(e.data.size()));
   return m;
 }
-
-class LogWriter {
- public:
-  explicit LogWriter(const fs::path& file) : log_(file.string(), "w") {}
-  template <class Msg>
-  void write(Utime t, const std::string& channel, const Msg& msg) {
-    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    lcm::LogEvent ev;
-    ev.eventnum = eventnum_++;
-    ev.timestamp = t;
-    ev.channel = channel;
-    ev.datalen = static_cast<int32_t>(buf.size());
-    ev.data = buf.data();
-    ASSERT_EQ(log_.writeEvent(&ev), 0);
-  }
-
- private:
-  lcm::LogFile log_;
-  int64_t eventnum_ = 0;
-};
 
 U proposal(const std::string& camera, int64_t proposal_id, Utime t, uint32_t seed) {
   const auto s = landmark_db::test::syntheticStructure(30, seed);
@@ -89,58 +69,58 @@ TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
   const auto stack =
       config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
   {
-    LogWriter log(dir / "in.lcmlog");
+    bus::LogWriter log(dir / "in.lcmlog");
     Utime t = kT0;
-    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 11, t, 1));
+    log.writeMessage(t, "LANDMARK_PROPOSAL", proposal("forward", 11, t, 1));
     t += 1000;
-    log.write(t, "LANDMARK_PROPOSAL", proposal("backward", 11, t, 2));
+    log.writeMessage(t, "LANDMARK_PROPOSAL", proposal("backward", 11, t, 2));
     t += 1000;
-    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 12, t, 3));
+    log.writeMessage(t, "LANDMARK_PROPOSAL", proposal("forward", 12, t, 3));
     t += 1000;
-    log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 11, kT0, 1));  // sent again
+    log.writeMessage(t, "LANDMARK_PROPOSAL", proposal("forward", 11, kT0, 1));  // sent again
     U bad = proposal("forward", 13, t, 4);
     bad.landmark.points[3][1] = NAN;
     t += 1000;
-    log.write(t, "LANDMARK_PROPOSAL", bad);
+    log.writeMessage(t, "LANDMARK_PROPOSAL", bad);
     U truncated = proposal("forward", 14, t, 5);
     truncated.landmark.descriptor_size = 64;
     for (auto& d : truncated.landmark.descriptors) d.resize(64);
     t += 1000;
-    log.write(t, "LANDMARK_PROPOSAL", truncated);
+    log.writeMessage(t, "LANDMARK_PROPOSAL", truncated);
     vslam::visual_measurement_t m{};
     m.utime = t;
     m.camera = "forward";
     m.landmark_id = 2;
     t += 1000;
-    log.write(t, "VISUAL_MEASUREMENT", m);
+    log.writeMessage(t, "VISUAL_MEASUREMENT", m);
     m.landmark_id = 777;  // unknown
     t += 1000;
-    log.write(t, "VISUAL_MEASUREMENT", m);
+    log.writeMessage(t, "VISUAL_MEASUREMENT", m);
     vslam::landmark_request_t r{};
     r.utime = t;
     r.requester = "frontend_late";
     r.database_id = "";
     r.since_revision = 0;
     t += 1000;
-    log.write(t, "LANDMARK_REQUEST", r);
+    log.writeMessage(t, "LANDMARK_REQUEST", r);
     r.requester = "frontend_ids";
     r.landmark_ids = {3, 999};
     r.num_ids = 2;
     t += 1000;
-    log.write(t, "LANDMARK_REQUEST", r);
+    log.writeMessage(t, "LANDMARK_REQUEST", r);
     // Past a flush and a summary period.
     vslam::visual_measurement_t later = m;
     later.landmark_id = 1;
     t += 2 * kMicrosPerSecond;
-    log.write(t, "VISUAL_MEASUREMENT", later);
+    log.writeMessage(t, "VISUAL_MEASUREMENT", later);
     t += 2 * kMicrosPerSecond;
-    log.write(t, "VISUAL_MEASUREMENT", later);
+    log.writeMessage(t, "VISUAL_MEASUREMENT", later);
     // A last event past the next flush (its timer runs before the event).
     r.requester = "nobody";
     r.landmark_ids = {999};
     r.num_ids = 1;
     t += 2 * kMicrosPerSecond;
-    log.write(t, "LANDMARK_REQUEST", r);
+    log.writeMessage(t, "LANDMARK_REQUEST", r);
   }
   bus::ReplayOptions options;
   options.input = dir / "in.lcmlog";
@@ -297,10 +277,11 @@ TEST(LandmarkDbStage, RejectsProposalsItCannotStoreAndKeepsTheOthers) {
       config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
   constexpr int kProposals = 120;
   {
-    LogWriter log(dir / "in.lcmlog");
+    bus::LogWriter log(dir / "in.lcmlog");
     for (int k = 0; k < kProposals; ++k) {
       const Utime t = kT0 + k * 100000;
-      log.write(t, "LANDMARK_PROPOSAL", proposal("forward", 100 + k, t, static_cast<uint32_t>(k)));
+      log.writeMessage(t, "LANDMARK_PROPOSAL",
+                       proposal("forward", 100 + k, t, static_cast<uint32_t>(k)));
     }
   }
   auto params = dbParams(stack);

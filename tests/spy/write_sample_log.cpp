@@ -2,10 +2,10 @@
 // transport tests' fill()), one channel per type, for the lcm-spy decode test.
 #include <cctype>
 #include <cstdio>
-#include <lcm/lcm-cpp.hpp>
+#include <exception>
 #include <string>
-#include <vector>
 
+#include "bus/log_writer.hpp"
 #include "message_fill.hpp"
 
 int main(int argc, char** argv) {
@@ -13,28 +13,21 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s OUT.lcmlog\n", argv[0]);
     return 2;
   }
-  lcm::LogFile log(argv[1], "w");
-  if (!log.good()) return 1;
-  int64_t eventnum = 0;
-  bool ok = true;
-  vslam::transport_test::forEachType(vslam::transport_test::AllTypes{}, [&](auto tag) {
-    using Msg = typename decltype(tag)::type;
-    std::string channel = "SPY_";
-    for (char c : std::string(Msg::getTypeName())) channel += static_cast<char>(std::toupper(c));
-    for (int seed = 0; seed < 3; ++seed) {
-      Msg msg;
-      vslam::transport_test::fill(msg, seed);
-      std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      lcm::LogEvent ev;
-      ev.eventnum = eventnum;
-      ev.timestamp = 1700000000000000 + eventnum * 1000;
-      ++eventnum;
-      ev.channel = channel;
-      ev.datalen = static_cast<int32_t>(buf.size());
-      ev.data = buf.data();
-      ok = ok && log.writeEvent(&ev) == 0;
-    }
-  });
-  return ok ? 0 : 1;
+  try {
+    vslam::bus::LogWriter log(argv[1]);
+    vslam::transport_test::forEachType(vslam::transport_test::AllTypes{}, [&](auto tag) {
+      using Msg = typename decltype(tag)::type;
+      std::string channel = "SPY_";
+      for (char c : std::string(Msg::getTypeName())) channel += static_cast<char>(std::toupper(c));
+      for (int seed = 0; seed < 3; ++seed) {
+        Msg msg;
+        vslam::transport_test::fill(msg, seed);
+        log.writeMessage(1700000000000000 + log.eventsWritten() * 1000, channel, msg);
+      }
+    });
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 1;
+  }
+  return 0;
 }

@@ -12,31 +12,16 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/log_writer.hpp"
+
 namespace vslam::test {
-namespace {
-
-template <class Msg>
-void writeMsg(lcm::LogFile& log, int64_t& eventnum, int64_t t, const std::string& channel,
-              const Msg& msg) {
-  std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-  msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  lcm::LogEvent ev;
-  ev.eventnum = eventnum++;
-  ev.timestamp = t;
-  ev.channel = channel;
-  ev.datalen = static_cast<int32_t>(buf.size());
-  ev.data = buf.data();
-  if (log.writeEvent(&ev) != 0) throw std::runtime_error("cannot write test log");
-}
-
-}  // namespace
+namespace {}  // namespace
 
 void writeDrivingLog(const std::filesystem::path& file, double seconds, double image_hz) {
-  lcm::LogFile log(file.string(), "w");
-  if (!log.good()) throw std::runtime_error("cannot create " + file.string());
+  bus::LogWriter log(file);
   const int64_t t0 = 1700000000000000;
   const double v = 0.3, omega = 0.2;  // m/s, rad/s
-  int64_t eventnum = 0, seq = 0, image_seq = 0;
+  int64_t seq = 0, image_seq = 0;
   const int64_t image_period = image_hz > 0 ? static_cast<int64_t>(1e6 / image_hz) : 0;
   int64_t next_image = t0;
   for (int64_t t = t0; t <= t0 + static_cast<int64_t>(seconds * 1e6); t += 20000, ++seq) {
@@ -52,14 +37,14 @@ void writeDrivingLog(const std::filesystem::path& file, double seconds, double i
     odo.rotation = omega * s;
     odo.v = v;
     odo.omega = omega;
-    writeMsg(log, eventnum, t, "ODOMETRY", odo);
+    log.writeMessage(t, "ODOMETRY", odo);
     vslam::ground_truth_pose_t gt{};
     gt.utime = t;
     gt.seq = seq;
     gt.x = odo.x;
     gt.y = odo.y;
     gt.theta = odo.theta;
-    writeMsg(log, eventnum, t + 100, "GROUND_TRUTH", gt);
+    log.writeMessage(t + 100, "GROUND_TRUTH", gt);
     if (image_period > 0 && t >= next_image) {
       vslam::image_t img{};
       img.utime = t;
@@ -77,7 +62,7 @@ void writeDrivingLog(const std::filesystem::path& file, double seconds, double i
         }
       }
       img.data_size = static_cast<int32_t>(img.data.size());
-      writeMsg(log, eventnum, t + 200, "CAM_FORWARD_IMAGE", img);
+      log.writeMessage(t + 200, "CAM_FORWARD_IMAGE", img);
       next_image += image_period;
     }
   }
