@@ -46,35 +46,45 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   BackendStageParams p;
   backend::BackendParams& b = p.backend;
   backend::FilterParams& f = b.filter;
-  f.num_particles = static_cast<int>(node.getInt("num_particles", 200, InRange{1, 1e6}));
-  f.num_threads = static_cast<int>(node.getInt("threads", 0, InRange{0, 256}));
-  f.seed = static_cast<uint64_t>(node.getInt("seed", 1, InRange{0, 9.0e18}));
+  f.num_particles =
+      static_cast<int>(node.getInt("num_particles", f.num_particles, InRange{1, 1e6}));
+  f.num_threads = static_cast<int>(node.getInt("threads", f.num_threads, InRange{0, 256}));
+  f.seed =
+      static_cast<uint64_t>(node.getInt("seed", static_cast<int64_t>(f.seed), InRange{0, 9.0e18}));
   f.motion.sigma_translation = node.getDouble("sigma_translation", config::nonNegative());
   f.motion.sigma_rotation = node.getDouble("sigma_rotation", config::nonNegative());
-  f.measurement_sigma_xy_m = node.getDouble("measurement_sigma_xy_m", 0.09, InRange{1e-4, 10.0});
-  f.measurement_sigma_theta_rad =
-      degToRad(node.getDouble("measurement_sigma_theta_deg", 2.4975, InRange{1e-3, 90.0}));
-  f.resample_ess_fraction = node.getDouble("resample_ess_fraction", 0.5, InRange{0.0, 1.0});
-  b.max_step_m = node.getDouble("max_step_m", 1.0, config::positive());
-  b.max_step_rad = degToRad(node.getDouble("max_step_deg", 90.0, InRange{1, 180}));
-  b.max_measurement_age_s = node.getDouble("max_measurement_age_s", 5.0, InRange{0.01, 600});
-  b.max_measurement_lead_s = node.getDouble("max_measurement_lead_s", 0.5, InRange{0, 60});
+  f.measurement_sigma_xy_m =
+      node.getDouble("measurement_sigma_xy_m", f.measurement_sigma_xy_m, InRange{1e-4, 10.0});
+  f.measurement_sigma_theta_rad = degToRad(node.getDouble(
+      "measurement_sigma_theta_deg", radToDeg(f.measurement_sigma_theta_rad), InRange{1e-3, 90.0}));
+  f.resample_ess_fraction =
+      node.getDouble("resample_ess_fraction", f.resample_ess_fraction, InRange{0.0, 1.0});
+  b.max_step_m = node.getDouble("max_step_m", b.max_step_m, config::positive());
+  b.max_step_rad =
+      degToRad(node.getDouble("max_step_deg", radToDeg(b.max_step_rad), InRange{1, 180}));
+  b.max_measurement_age_s =
+      node.getDouble("max_measurement_age_s", b.max_measurement_age_s, InRange{0.01, 600});
+  b.max_measurement_lead_s =
+      node.getDouble("max_measurement_lead_s", b.max_measurement_lead_s, InRange{0, 60});
   b.measurement_sigma_xy_per_m =
-      node.getDouble("measurement_sigma_xy_per_m", 0.0, InRange{0, 10.0});
+      node.getDouble("measurement_sigma_xy_per_m", b.measurement_sigma_xy_per_m, InRange{0, 10.0});
   b.measurement_sigma_theta_rad_per_m =
-      degToRad(node.getDouble("measurement_sigma_theta_deg_per_m", 0.0, InRange{0, 90.0}));
-  b.landmark_min_interval_s = node.getDouble("landmark_min_interval_s", 0.0, InRange{0, 60});
+      degToRad(node.getDouble("measurement_sigma_theta_deg_per_m",
+                              radToDeg(b.measurement_sigma_theta_rad_per_m), InRange{0, 90.0}));
+  b.landmark_min_interval_s =
+      node.getDouble("landmark_min_interval_s", b.landmark_min_interval_s, InRange{0, 60});
   if (node.has("map_prior_file") && !node.getString("map_prior_file", true).empty())
     p.map_prior_file = node.getPath("map_prior_file", true);
-  p.map_prior_sigma_xy_m = node.getDouble("map_prior_sigma_xy_m", 0.05, InRange{1e-4, 10.0});
-  p.map_prior_sigma_theta_rad =
-      degToRad(node.getDouble("map_prior_sigma_theta_deg", 1.0, InRange{1e-3, 90.0}));
+  p.map_prior_sigma_xy_m =
+      node.getDouble("map_prior_sigma_xy_m", p.map_prior_sigma_xy_m, InRange{1e-4, 10.0});
+  p.map_prior_sigma_theta_rad = degToRad(node.getDouble(
+      "map_prior_sigma_theta_deg", radToDeg(p.map_prior_sigma_theta_rad), InRange{1e-3, 90.0}));
   const std::string start = node.getString("map_prior_start", "origin");
   if (start != "origin" && start != "unknown")
     throw node.error("map_prior_start", "expected origin or unknown, not '" + start + "'");
   p.map_prior_unknown_start = start == "unknown";
-  p.map_rate_hz = node.getDouble("map_rate_hz", 1.0, InRange{0, 100});
-  p.particles_rate_hz = node.getDouble("particles_rate_hz", 2.0, InRange{0, 100});
+  p.map_rate_hz = node.getDouble("map_rate_hz", p.map_rate_hz, InRange{0, 100});
+  p.particles_rate_hz = node.getDouble("particles_rate_hz", p.particles_rate_hz, InRange{0, 100});
   p.odometry_timeout_s =
       node.getDouble("odometry_timeout_s", p.odometry_timeout_s, InRange{0.05, 3600});
 
@@ -83,32 +93,37 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   if (node.has("mixture")) {
     const config::ConfigNode mx = node.child("mixture");
     backend::MixtureParams& m = f.mixture;
-    m.dual_ratio_min = mx.getDouble("dual_ratio_min", 0.1, InRange{0, 1});
-    m.dual_ratio_max = mx.getDouble("dual_ratio_max", 0.5, InRange{0, 1});
+    m.dual_ratio_min = mx.getDouble("dual_ratio_min", m.dual_ratio_min, InRange{0, 1});
+    m.dual_ratio_max = mx.getDouble("dual_ratio_max", m.dual_ratio_max, InRange{0, 1});
     if (m.dual_ratio_max < m.dual_ratio_min)
       throw mx.error("dual_ratio_max", "must be at least dual_ratio_min");
-    m.agreement_smoothing = mx.getDouble("agreement_smoothing", 0.3, InRange{1e-3, 1});
-    m.motion_min_sigma_xy_m = mx.getDouble("motion_min_sigma_xy_m", 0.02, InRange{1e-4, 100});
-    m.motion_min_sigma_theta_rad =
-        degToRad(mx.getDouble("motion_min_sigma_theta_deg", 1.15, InRange{1e-3, 180}));
+    m.agreement_smoothing =
+        mx.getDouble("agreement_smoothing", m.agreement_smoothing, InRange{1e-3, 1});
+    m.motion_min_sigma_xy_m =
+        mx.getDouble("motion_min_sigma_xy_m", m.motion_min_sigma_xy_m, InRange{1e-4, 100});
+    m.motion_min_sigma_theta_rad = degToRad(mx.getDouble(
+        "motion_min_sigma_theta_deg", radToDeg(m.motion_min_sigma_theta_rad), InRange{1e-3, 180}));
     mx.requireAllKeysUsed();
   }
   if (node.has("outlier")) {
     const config::ConfigNode ol = node.child("outlier");
     backend::OutlierParams& o = f.outlier;
-    o.probability = ol.getDouble("probability", 0.05, InRange{0, 0.999});
+    o.probability = ol.getDouble("probability", o.probability, InRange{0, 0.999});
     o.area_m2 = ol.getDouble("area_m2", 25.0, InRange{1e-3, 1e9});
-    o.gate_mahalanobis_sq = ol.getDouble("gate_mahalanobis_sq", 16.27, InRange{1e-3, 1e9});
+    o.gate_mahalanobis_sq =
+        ol.getDouble("gate_mahalanobis_sq", o.gate_mahalanobis_sq, InRange{1e-3, 1e9});
     ol.requireAllKeysUsed();
   }
   if (node.has("kidnap")) {
     const config::ConfigNode kd = node.child("kidnap");
     backend::KidnapParams& k = f.kidnap;
-    k.detect_agreement = kd.getDouble("detect_agreement", 1e-3, InRange{0, 1});
-    k.detect_count = static_cast<int>(kd.getInt("detect_count", 3, InRange{1, 1000}));
-    k.recover_agreement = kd.getDouble("recover_agreement", 0.1, InRange{0, 1});
-    k.recover_count = static_cast<int>(kd.getInt("recover_count", 2, InRange{1, 1000}));
-    k.detect_landmarks = static_cast<int>(kd.getInt("detect_landmarks", 2, InRange{1, 1000}));
+    k.detect_agreement = kd.getDouble("detect_agreement", k.detect_agreement, InRange{0, 1});
+    k.detect_count = static_cast<int>(kd.getInt("detect_count", k.detect_count, InRange{1, 1000}));
+    k.recover_agreement = kd.getDouble("recover_agreement", k.recover_agreement, InRange{0, 1});
+    k.recover_count =
+        static_cast<int>(kd.getInt("recover_count", k.recover_count, InRange{1, 1000}));
+    k.detect_landmarks =
+        static_cast<int>(kd.getInt("detect_landmarks", k.detect_landmarks, InRange{1, 1000}));
     // The defaults are the struct's (backend/particle_filter.hpp).
     k.detect_min_span_s = kd.getDouble("detect_min_span_s", k.detect_min_span_s, InRange{0, 600});
     k.cluster_xy_m = kd.getDouble("cluster_xy_m", k.cluster_xy_m, InRange{1e-3, 100});
@@ -146,29 +161,36 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   if (node.has("map_correction")) {
     const config::ConfigNode mc = node.child("map_correction");
     backend::MapCorrectionParams& m = b.map_correction;
-    m.enabled = mc.getBool("enabled", false);
-    m.solve_interval_s = mc.getDouble("solve_interval_s", 2.0, InRange{0, 3600});
-    m.max_outlier_fraction = mc.getDouble("max_outlier_fraction", 0.5, InRange{0, 1});
+    m.enabled = mc.getBool("enabled", m.enabled);
+    m.solve_interval_s = mc.getDouble("solve_interval_s", m.solve_interval_s, InRange{0, 3600});
+    m.max_outlier_fraction =
+        mc.getDouble("max_outlier_fraction", m.max_outlier_fraction, InRange{0, 1});
     m.measurement_min_interval_s =
-        mc.getDouble("measurement_min_interval_s", 0.5, InRange{0, 3600});
-    m.creation_max_age_s = mc.getDouble("creation_max_age_s", 60.0, InRange{0.01, 3600});
-    m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", 1.5, InRange{1e-3, 1000});
-    m.kidnap_jump_rad = degToRad(mc.getDouble("kidnap_jump_deg", 30.0, InRange{1e-3, 180}));
-    m.landmark_sigma_xy_m = mc.getDouble("landmark_sigma_xy_m", 0.02, InRange{1e-4, 10});
-    m.landmark_sigma_theta_rad =
-        degToRad(mc.getDouble("landmark_sigma_theta_deg", 0.5, InRange{1e-3, 90}));
+        mc.getDouble("measurement_min_interval_s", m.measurement_min_interval_s, InRange{0, 3600});
+    m.creation_max_age_s =
+        mc.getDouble("creation_max_age_s", m.creation_max_age_s, InRange{0.01, 3600});
+    m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", m.kidnap_jump_m, InRange{1e-3, 1000});
+    m.kidnap_jump_rad =
+        degToRad(mc.getDouble("kidnap_jump_deg", radToDeg(m.kidnap_jump_rad), InRange{1e-3, 180}));
+    m.landmark_sigma_xy_m =
+        mc.getDouble("landmark_sigma_xy_m", m.landmark_sigma_xy_m, InRange{1e-4, 10});
+    m.landmark_sigma_theta_rad = degToRad(mc.getDouble(
+        "landmark_sigma_theta_deg", radToDeg(m.landmark_sigma_theta_rad), InRange{1e-3, 90}));
     backend::PoseGraphParams& g = m.graph;
     // The odometry noise is the motion model's.
     g.sigma_translation = std::max(f.motion.sigma_translation, 1e-4);
     g.sigma_rotation = std::max(f.motion.sigma_rotation, 1e-4);
-    g.measurement_sigma_xy_m = mc.getDouble("measurement_sigma_xy_m", 0.01, InRange{1e-4, 10});
-    g.measurement_sigma_xy_per_m = mc.getDouble("measurement_sigma_xy_per_m", 0.3, InRange{0, 10});
-    g.measurement_sigma_theta_rad =
-        degToRad(mc.getDouble("measurement_sigma_theta_deg", 0.6, InRange{1e-3, 90}));
+    g.measurement_sigma_xy_m =
+        mc.getDouble("measurement_sigma_xy_m", g.measurement_sigma_xy_m, InRange{1e-4, 10});
+    g.measurement_sigma_xy_per_m =
+        mc.getDouble("measurement_sigma_xy_per_m", g.measurement_sigma_xy_per_m, InRange{0, 10});
+    g.measurement_sigma_theta_rad = degToRad(mc.getDouble(
+        "measurement_sigma_theta_deg", radToDeg(g.measurement_sigma_theta_rad), InRange{1e-3, 90}));
     g.measurement_sigma_theta_rad_per_m =
-        degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m", 0.8, InRange{0, 90}));
-    g.max_measurement_distance_m =
-        mc.getDouble("max_measurement_distance_m", 1.5, InRange{1e-3, 100});
+        degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m",
+                              radToDeg(g.measurement_sigma_theta_rad_per_m), InRange{0, 90}));
+    g.max_measurement_distance_m = mc.getDouble("max_measurement_distance_m",
+                                                g.max_measurement_distance_m, InRange{1e-3, 100});
     // The defaults of the robust loss are the struct's (backend/pose_graph.hpp).
     if (mc.has("robust_loss")) {
       g.robust_loss = mc.getEnum("robust_loss", {"huber", "cauchy"}) == "huber"
@@ -176,13 +198,16 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
                           : backend::PoseGraphParams::RobustLoss::kCauchy;
     }
     g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
-    g.max_iterations = static_cast<int>(mc.getInt("max_iterations", 20, InRange{1, 1000}));
+    g.max_iterations =
+        static_cast<int>(mc.getInt("max_iterations", g.max_iterations, InRange{1, 1000}));
     g.odometry_gate_mahalanobis_sq = mc.getDouble("odometry_gate_mahalanobis_sq",
                                                   g.odometry_gate_mahalanobis_sq, InRange{0, 1e6});
     g.min_agreeing = static_cast<int>(mc.getInt("min_agreeing", g.min_agreeing, InRange{0, 1000}));
-    g.segment_prior_sigma_xy_m = mc.getDouble("segment_prior_sigma_xy_m", 0.5, InRange{1e-3, 100});
+    g.segment_prior_sigma_xy_m =
+        mc.getDouble("segment_prior_sigma_xy_m", g.segment_prior_sigma_xy_m, InRange{1e-3, 100});
     g.segment_prior_sigma_theta_rad =
-        degToRad(mc.getDouble("segment_prior_sigma_theta_deg", 10.0, InRange{1e-3, 180}));
+        degToRad(mc.getDouble("segment_prior_sigma_theta_deg",
+                              radToDeg(g.segment_prior_sigma_theta_rad), InRange{1e-3, 180}));
     mc.requireAllKeysUsed();
   }
   p.odometry_channel = robot.channels.odometry;

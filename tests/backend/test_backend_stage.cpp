@@ -633,3 +633,107 @@ TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
   EXPECT_LT(last_age, 1.0);  // back to normal once odometry resumes
   fs::remove_all(dir);
 }
+
+// The library's defaults (the structs of backend/) are the paper's model and
+// the safe choices; config/vslam.yaml is the stack as tuned. Every value the
+// shipped config sets differently from the library must be listed here with
+// why, and every listed one must still differ: so a default changed in one
+// place and not the other shows up here.
+TEST(BackendStage, TheShippedConfigDiffersFromTheLibraryDefaultsOnlyWhereItSaysWhy) {
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  const auto shipped = stages::BackendStageParams::load(stack.process("backend"), stack.robot,
+                                                        stages::loadPrefilter(stack));
+  const stages::BackendStageParams library;
+  const backend::BackendParams& s = shipped.backend;
+  const backend::BackendParams& d = library.backend;
+  struct Field {
+    const char* name;
+    double shipped, library;
+    const char* why;  // nullptr: they must agree
+  };
+  const Field fields[] = {
+      {"num_particles", double(s.filter.num_particles), double(d.filter.num_particles), nullptr},
+      {"sigma_translation", s.filter.motion.sigma_translation, d.filter.motion.sigma_translation,
+       "the robot's odometry: no library default (0)"},
+      {"sigma_rotation", s.filter.motion.sigma_rotation, d.filter.motion.sigma_rotation,
+       "the robot's odometry: no library default (0)"},
+      {"measurement_sigma_xy_m", s.filter.measurement_sigma_xy_m, d.filter.measurement_sigma_xy_m,
+       nullptr},
+      {"measurement_sigma_theta", s.filter.measurement_sigma_theta_rad,
+       d.filter.measurement_sigma_theta_rad, nullptr},
+      {"resample_ess_fraction", s.filter.resample_ess_fraction, d.filter.resample_ess_fraction,
+       nullptr},
+      {"measurement_sigma_xy_per_m", s.measurement_sigma_xy_per_m, d.measurement_sigma_xy_per_m,
+       nullptr},
+      {"measurement_sigma_theta_per_m", s.measurement_sigma_theta_rad_per_m,
+       d.measurement_sigma_theta_rad_per_m, nullptr},
+      {"landmark_min_interval_s", s.landmark_min_interval_s, d.landmark_min_interval_s,
+       "correlated measurements (docs/backend.md, Robustness)"},
+      {"max_measurement_age_s", s.max_measurement_age_s, d.max_measurement_age_s, nullptr},
+      {"dual_ratio_min", s.filter.mixture.dual_ratio_min, d.filter.mixture.dual_ratio_min, nullptr},
+      {"dual_ratio_max", s.filter.mixture.dual_ratio_max, d.filter.mixture.dual_ratio_max,
+       "0.5 let aliases flood the set with dual particles in generated homes"},
+      {"agreement_smoothing", s.filter.mixture.agreement_smoothing,
+       d.filter.mixture.agreement_smoothing, nullptr},
+      {"motion_min_sigma_xy_m", s.filter.mixture.motion_min_sigma_xy_m,
+       d.filter.mixture.motion_min_sigma_xy_m, "set with the robust likelihood (commit 62e4053)"},
+      {"motion_min_sigma_theta", s.filter.mixture.motion_min_sigma_theta_rad,
+       d.filter.mixture.motion_min_sigma_theta_rad, "as motion_min_sigma_xy_m"},
+      {"outlier.probability", s.filter.outlier.probability, d.filter.outlier.probability, nullptr},
+      {"outlier.gate", s.filter.outlier.gate_mahalanobis_sq, d.filter.outlier.gate_mahalanobis_sq,
+       nullptr},
+      {"kidnap.detect_count", double(s.filter.kidnap.detect_count),
+       double(d.filter.kidnap.detect_count), "wallpaper aliases fired 3 (commit 46f4641)"},
+      {"kidnap.detect_landmarks", double(s.filter.kidnap.detect_landmarks),
+       double(d.filter.kidnap.detect_landmarks), nullptr},
+      {"kidnap.detect_min_span_s", s.filter.kidnap.detect_min_span_s,
+       d.filter.kidnap.detect_min_span_s, "repeated patterns (commit 72e71db)"},
+      {"kidnap.suspect_after", double(s.filter.kidnap.suspect_after),
+       double(d.filter.kidnap.suspect_after), "repeated patterns (commit 72e71db)"},
+      {"kidnap.recover_landmarks", double(s.filter.kidnap.recover_landmarks),
+       double(d.filter.kidnap.recover_landmarks),
+       "one look-alike must not confirm a relocalization"},
+      {"kidnap.recover_window_s", s.filter.kidnap.recover_window_s,
+       d.filter.kidnap.recover_window_s, "confirmation among look-alikes (commit 22854ee)"},
+      {"kidnap.drift_gate", s.filter.kidnap.drift_gate_mahalanobis_sq,
+       d.filter.kidnap.drift_gate_mahalanobis_sq,
+       "drift or kidnapping (commit 5553833; the paper has none)"},
+      {"kidnap.drift_sigma_scale", s.filter.kidnap.drift_sigma_scale,
+       d.filter.kidnap.drift_sigma_scale, "the motion model's sigmas are a guess"},
+      {"map_correction.enabled", double(s.map_correction.enabled), double(d.map_correction.enabled),
+       "map correction (commit 42605d4; the paper has the filter alone)"},
+      {"map_correction.solve_interval_s", s.map_correction.solve_interval_s,
+       d.map_correction.solve_interval_s, "map correction (commit 42605d4)"},
+      {"map_correction.measurement_min_interval_s", s.map_correction.measurement_min_interval_s,
+       d.map_correction.measurement_min_interval_s, "map correction (commit 42605d4)"},
+      {"graph.measurement_sigma_xy_per_m", s.map_correction.graph.measurement_sigma_xy_per_m,
+       d.map_correction.graph.measurement_sigma_xy_per_m, "map correction (commit 42605d4)"},
+      {"graph.measurement_sigma_theta", s.map_correction.graph.measurement_sigma_theta_rad,
+       d.map_correction.graph.measurement_sigma_theta_rad, nullptr},
+      {"graph.odometry_gate", s.map_correction.graph.odometry_gate_mahalanobis_sq,
+       d.map_correction.graph.odometry_gate_mahalanobis_sq,
+       "landmarks against the odometry (commit 6a47028)"},
+      {"graph.min_agreeing", double(s.map_correction.graph.min_agreeing),
+       double(d.map_correction.graph.min_agreeing), nullptr},
+      {"graph.robust_sigmas", s.map_correction.graph.robust_sigmas,
+       d.map_correction.graph.robust_sigmas, nullptr},
+      {"odometry_calibration.enabled", double(s.odometry_calibration.enabled),
+       double(d.odometry_calibration.enabled), "estimates reported in health (docs/backend.md)"},
+      {"odometry_calibration.adopt", double(s.odometry_calibration.adopt),
+       double(d.odometry_calibration.adopt), nullptr},
+      {"map_rate_hz", shipped.map_rate_hz, library.map_rate_hz, nullptr},
+      {"particles_rate_hz", shipped.particles_rate_hz, library.particles_rate_hz, nullptr},
+  };
+  for (const Field& f : fields) {
+    // To 4 significant digits: the file has degrees where the structs have radians.
+    const bool same = std::abs(f.shipped - f.library) <= 1e-4 * std::max(1e-3, std::abs(f.library));
+    if (f.why == nullptr) {
+      EXPECT_TRUE(same) << f.name << ": config/vslam.yaml " << f.shipped << ", library "
+                        << f.library << " (say why in this test, or make them agree)";
+    } else {
+      EXPECT_FALSE(same) << f.name << " is listed as differing (" << f.why << ") but both are "
+                         << f.shipped;
+    }
+  }
+}
