@@ -29,9 +29,11 @@ AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
 
   p.action.distance_m = node.getDouble("action_distance_m", config::InRange{0.05, 100});
   p.action.turn_rad = degToRad(node.getDouble("action_turn_deg", config::InRange{1, 360}));
-  p.action.rest_s = node.getDouble("action_rest_s", 0.3, config::InRange{0.02, 10});
-  p.action.min_fraction = node.getDouble("action_min_fraction", 0.5, config::InRange{0.01, 1});
-  p.snapshot_timeout_s = node.getDouble("snapshot_timeout_s", 1.0, config::InRange{0.05, 60});
+  p.action.rest_s = node.getDouble("action_rest_s", p.action.rest_s, config::InRange{0.02, 10});
+  p.action.min_fraction =
+      node.getDouble("action_min_fraction", p.action.min_fraction, config::InRange{0.01, 1});
+  p.snapshot_timeout_s =
+      node.getDouble("snapshot_timeout_s", p.snapshot_timeout_s, config::InRange{0.05, 60});
 
   p.histogram.bins = static_cast<int>(node.getInt("histogram_bins", config::InRange{2, 1024}));
   p.histogram.min_magnitude = node.getDouble("min_gradient", config::nonNegative());
@@ -70,13 +72,14 @@ AppearanceParams AppearanceParams::load(const config::ConfigNode& node,
   p.action_error.odometry_rotation =
       node.getDouble("odometry_sigma_rotation", config::nonNegative());
 
-  p.map_period_s = node.getDouble("map_period_s", 5.0, config::positive());
+  p.map_period_s = node.getDouble("map_period_s", p.map_period_s, config::positive());
   const std::string file = node.has("map_file") ? node.getString("map_file", true) : "";
   if (!file.empty()) {
     p.map_file = node.getPath("map_file", false);
     p.map_load = node.getBool("map_load");
     p.map_save = node.getBool("map_save");
-    p.map_save_period_s = node.getDouble("map_save_period_s", 60.0, config::nonNegative());
+    p.map_save_period_s =
+        node.getDouble("map_save_period_s", p.map_save_period_s, config::nonNegative());
   }
   return p;
 }

@@ -11,8 +11,8 @@ DeadReckonParams DeadReckonParams::load(const config::ConfigNode& node,
   DeadReckonParams p;
   p.noise.sigma_translation = node.getDouble("sigma_translation", config::nonNegative());
   p.noise.sigma_rotation = node.getDouble("sigma_rotation", config::nonNegative());
-  p.max_step_m = node.getDouble("max_step_m", 1.0, config::positive());
-  p.max_step_deg = node.getDouble("max_step_deg", 90.0, config::InRange{1, 180});
+  p.max_step_m = node.getDouble("max_step_m", p.max_step_m, config::positive());
+  p.max_step_deg = node.getDouble("max_step_deg", p.max_step_deg, config::InRange{1, 180});
   p.odometry_channel = robot.channels.odometry;
   p.pose_channel = robot.channels.pose_odometry;
   return p;

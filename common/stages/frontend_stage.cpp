@@ -77,18 +77,22 @@ FrontendParams FrontendParams::load(const config::ConfigNode& node,
   p.summary_channel = robot.channels.landmark_summary;
   p.request_channel = robot.channels.landmark_request;
   p.use_landmark_db = node.getEnum("landmark_db", {"required", "none"}) == "required";
-  p.proposal_timeout_s = node.getDouble("proposal_timeout_s", 2.0, config::InRange{0.1, 600});
-  p.creation_baseline_m = node.getDouble("creation_baseline_m", 0.20, config::InRange{0.02, 2.0});
-  p.max_measurements_per_frame =
-      static_cast<int>(node.getInt("max_measurements_per_frame", 4, config::InRange{1, 100}));
-  p.sift.nfeatures =
-      static_cast<int>(node.getInt("sift_max_features", 0, config::InRange{0, 100000}));
-  p.sift.gain_target_level = node.getDouble("dim_frame_gain_target", 0.0, config::InRange{0, 255});
-  p.sift.max_gain = node.getDouble("dim_frame_max_gain", 4.0, config::InRange{1, 64});
-  p.recognition.ratio = node.getDouble("match_ratio", 0.8, config::InRange{0.1, 1.0});
+  p.proposal_timeout_s =
+      node.getDouble("proposal_timeout_s", p.proposal_timeout_s, config::InRange{0.1, 600});
+  p.creation_baseline_m =
+      node.getDouble("creation_baseline_m", p.creation_baseline_m, config::InRange{0.02, 2.0});
+  p.max_measurements_per_frame = static_cast<int>(node.getInt(
+      "max_measurements_per_frame", p.max_measurements_per_frame, config::InRange{1, 100}));
+  p.sift.nfeatures = static_cast<int>(
+      node.getInt("sift_max_features", p.sift.nfeatures, config::InRange{0, 100000}));
+  p.sift.gain_target_level =
+      node.getDouble("dim_frame_gain_target", p.sift.gain_target_level, config::InRange{0, 255});
+  p.sift.max_gain = node.getDouble("dim_frame_max_gain", p.sift.max_gain, config::InRange{1, 64});
+  p.recognition.ratio =
+      node.getDouble("match_ratio", p.recognition.ratio, config::InRange{0.1, 1.0});
   p.creation.match.ratio = p.recognition.ratio;
-  p.recognition.min_matches =
-      static_cast<int>(node.getInt("min_matches", 10, config::InRange{4, 1000}));
+  p.recognition.min_matches = static_cast<int>(
+      node.getInt("min_matches", p.recognition.min_matches, config::InRange{4, 1000}));
   return p;
 }
 
