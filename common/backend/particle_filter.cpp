@@ -48,6 +48,52 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("backend filter: " + what);
 }
 
+// The robust likelihood of OutlierParams: log of (1 - eps) N + eps u.
+class RobustLikelihood {
+ public:
+  explicit RobustLikelihood(const OutlierParams& op)
+      : robust_(op.probability > 0),
+        log_inlier_(robust_ ? std::log1p(-op.probability) : 0.0),
+        log_floor_(robust_ ? std::log(op.probability) - std::log(op.area_m2 * 2 * M_PI) : 0.0) {}
+  bool robust() const { return robust_; }
+  double log(const Innovation& in) const {
+    if (!robust_) return in.log_likelihood;
+    const double a = log_inlier_ + in.log_likelihood, b = log_floor_;
+    return std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
+  }
+
+ private:
+  bool robust_;
+  double log_inlier_, log_floor_;
+};
+
+// The motion model's density of a particle's move since its anchor (its pose
+// at the previous update): the odometry u since then, with its accumulated
+// covariance (the anchor's frame, the same for every particle) plus the
+// floors that regularise the nearly singular covariance of a short drive.
+class MotionDensity {
+ public:
+  MotionDensity(const PoseWithCovariance& since_update, const MixtureParams& mix)
+      : u_(since_update.pose()) {
+    Eigen::Matrix3d cov = since_update.covariance();
+    cov(0, 0) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
+    cov(1, 1) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
+    cov(2, 2) += mix.motion_min_sigma_theta_rad * mix.motion_min_sigma_theta_rad;
+    inv_ = cov.inverse();
+    log_norm_ = -0.5 * (std::log(cov.determinant()) + 3 * 1.8378770664093453);
+  }
+  double log(const Particle& p) const {
+    const Pose2 moved = p.anchor.between(p.pose);
+    const Eigen::Vector3d d(moved.x - u_.x, moved.y - u_.y, wrapAngle(moved.theta - u_.theta));
+    return log_norm_ - 0.5 * d.dot(inv_ * d);
+  }
+
+ private:
+  Pose2 u_;
+  Eigen::Matrix3d inv_;
+  double log_norm_;
+};
+
 }  // namespace
 
 const char* toString(UpdateKind k) {
@@ -169,6 +215,15 @@ UpdateReport ParticleFilter::initialize(uint32_t slot, const Observation& obs,
   return rep;
 }
 
+UpdateReport ParticleFilter::unusedWhileKidnapped() const {
+  UpdateReport rep;
+  rep.kind = UpdateKind::kKidnapped;
+  rep.agreement = 0;
+  rep.smoothed_agreement = smoothed_agreement_;
+  rep.ess = effectiveSampleSize();
+  return rep;
+}
+
 UpdateReport ParticleFilter::update(const Observation& obs) {
   if (!obs.relative.isFinite() || !obs.covariance.allFinite())
     throw std::invalid_argument("backend filter: non-finite observation");
@@ -182,12 +237,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     // happened (a carried robot that makes new landmarks before it sees an
     // old one "recovered" where the look-alike that declared the kidnapping
     // put it). It is mapped at its first measurement after the relocalization.
-    UpdateReport rep;
-    rep.kind = UpdateKind::kKidnapped;
+    UpdateReport rep = unusedWhileKidnapped();
     rep.deferred = true;
-    rep.agreement = 0;
-    rep.smoothed_agreement = smoothed_agreement_;
-    rep.ess = effectiveSampleSize();
     return rep;
   }
   if (found == slots_.end()) {
@@ -197,39 +248,20 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     return initialize(slot, obs, r);
   }
   const uint32_t slot = found->second;
-  const KidnapParams& kp = params_.kidnap;
   const bool suspect = isSuspect(slot);
   if (kidnapped_ && suspect) {
     // A known look-alike neither proposes nor confirms a relocalization.
-    UpdateReport rep;
-    rep.kind = UpdateKind::kKidnapped;
+    UpdateReport rep = unusedWhileKidnapped();
     rep.suspect = true;
-    rep.agreement = 0;
-    rep.smoothed_agreement = smoothed_agreement_;
-    rep.ess = effectiveSampleSize();
     return rep;
   }
   const uint64_t k = step_++;
-  const uint64_t seed = params_.seed;
   const size_t m = particles_.size();
   const Pose2 y = obs.relative;
 
   // Prior weights, normalised, in the log domain (they may underflow as
   // plain numbers when the particles disagree with the measurements).
   const std::vector<double> log_w = normalizedLogWeights();
-
-  // Robust likelihood (OutlierParams): log of (1 - eps) N + eps u, and
-  // whether the Kalman filter may use the measurement.
-  const OutlierParams& op = params_.outlier;
-  const bool robust = op.probability > 0;
-  const double log_inlier = robust ? std::log1p(-op.probability) : 0.0;
-  const double log_floor =
-      robust ? std::log(op.probability) - std::log(op.area_m2 * 2 * M_PI) : 0.0;
-  auto robustLogLikelihood = [&](const Innovation& in) {
-    if (!robust) return in.log_likelihood;
-    const double a = log_inlier + in.log_likelihood, b = log_floor;
-    return std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
-  };
 
   // (1) How well do the particles, as they are, explain the measurement?
   const double agreement = agreementWith(slot, obs, r, log_w);
@@ -239,80 +271,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   rep.agreement = agreement;
   rep.suspect = suspect;
   const MixtureParams& mix = params_.mixture;
-  bool all_dual = false;
   bool confirmed_by_cluster = false;
-  if (kidnapped_) {
-    if (kp.recover_window_s > 0) {
-      pushBounded(reloc_run_, implied(obs, slot));
-      const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
-      reloc_run_.erase(
-          std::remove_if(reloc_run_.begin(), reloc_run_.end(),
-                         [&](const Implied& e) { return obs.utime - e.utime > window; }),
-          reloc_run_.end());
-      confirmed_by_cluster =
-          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks;
-    }
-    if (agreement >= kp.recover_agreement) {
-      ++recover_count_;
-      if (std::find(recover_landmarks_.begin(), recover_landmarks_.end(), obs.landmark_id) ==
-          recover_landmarks_.end())
-        recover_landmarks_.push_back(obs.landmark_id);
-    } else {
-      recover_count_ = 0;
-      recover_landmarks_.clear();
-    }
-    if (recover_count_ >= kp.recover_count &&
-        static_cast<int>(recover_landmarks_.size()) >= kp.recover_landmarks) {
-      kidnapped_ = false;
-      rep.recovered = true;
-      smoothed_agreement_ = agreement;
-      recover_count_ = 0;
-      recover_landmarks_.clear();
-    } else {
-      // Still kidnapped; if the cluster confirmed it, this is the last
-      // all-dual draw, from this measurement (one of the cluster).
-      all_dual = true;
-    }
-  } else {
-    // A run of inconsistent measurements in a row (KidnapParams). A known
-    // look-alike's inconsistent measurement neither extends nor ends it.
-    if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
-    if (agreement < kp.detect_agreement) {
-      if (!suspect) pushBounded(low_run_, implied(obs, slot));
-    } else {
-      endLowRun();
-    }
-    const std::optional<Pose2> evidence =
-        static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
-    if (evidence) {
-      const PoseEstimate now = estimate();
-      const Pose2 from = now.mean;
-      rep.evidence = true;
-      rep.jump = {evidence->x - from.x, evidence->y - from.y,
-                  wrapAngle(evidence->theta - from.theta)};
-      rep.jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
-      low_run_.clear();
-      if (kp.drift_gate_mahalanobis_sq > 0 &&
-          rep.jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
-        // Drift: every particle moves by the jump (keeping its spread and
-        // map); this measurement then weighs them as usual.
-        shiftParticles(evidence->compose(from.inverse()));
-        rep.drift_corrected = true;
-        smoothed_agreement_ = 1;
-      } else {
-        held_ = from;  // published until the relocalization is confirmed
-        kidnapped_ = true;
-        rep.kidnap_detected = true;
-        reloc_run_.clear();
-        recover_count_ = 0;
-        recover_landmarks_.clear();
-        all_dual = true;
-      }
-    }
-  }
-  if (!all_dual) {
-    smoothed_agreement_ += mix.agreement_smoothing * (agreement - smoothed_agreement_);
-  }
+  const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
   const double ratio = all_dual ? 1.0
                                 : mix.dual_ratio_min + (mix.dual_ratio_max - mix.dual_ratio_min) *
                                                            (1.0 - smoothed_agreement_);
@@ -321,6 +281,37 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       suspect ? uint64_t{0}
               : static_cast<uint64_t>(std::min<double>(static_cast<double>(m),
                                                        std::round(ratio * static_cast<double>(m))));
+  // (3) Sample, weight, and update each particle's Kalman filter of the landmark.
+  rep.num_outliers = drawAndWeigh(slot, y, r, log_w, n_dual, all_dual, k);
+  normalize();
+  rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
+  if (kidnapped_ && confirmed_by_cluster) {
+    kidnapped_ = false;
+    rep.recovered = true;
+    recover_count_ = 0;
+    recover_landmarks_.clear();
+  }
+  if (!kidnapped_) reloc_run_.clear();
+  rep.num_dual = static_cast<int>(n_dual);
+  rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
+  rep.smoothed_agreement = smoothed_agreement_;
+  rep.ess = effectiveSampleSize();
+  last_dual_ratio_ = rep.dual_ratio;
+  if (rep.ess < params_.resample_ess_fraction * static_cast<double>(m)) {
+    resample();
+    rep.resampled = true;
+  }
+  return rep;
+}
+
+int ParticleFilter::drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Matrix3d& r,
+                                 const std::vector<double>& log_w, uint64_t n_dual, bool all_dual,
+                                 uint64_t k) {
+  const uint64_t seed = params_.seed;
+  const size_t m = particles_.size();
+  const MixtureParams& mix = params_.mixture;
+  const OutlierParams& op = params_.outlier;
+  const RobustLikelihood robust_likelihood(op);
   // Which particles are dual: n_dual of them, evenly spread over the
   // (ancestor-ordered) set from a random offset.
   RandomStream select_rng(seed, k, 0, kSelect);
@@ -343,23 +334,10 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   // update (the anchor's frame, the same for every particle), floored.
   const double rho = static_cast<double>(n_dual) / static_cast<double>(m);
   const double log_rho = std::log(rho), log_1_rho = std::log1p(-rho);
-  const Pose2 u = since_update_.pose();
-  Eigen::Matrix3d motion_cov = since_update_.covariance();
-  motion_cov(0, 0) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
-  motion_cov(1, 1) += mix.motion_min_sigma_xy_m * mix.motion_min_sigma_xy_m;
-  motion_cov(2, 2) += mix.motion_min_sigma_theta_rad * mix.motion_min_sigma_theta_rad;
-  const Eigen::Matrix3d motion_inv = motion_cov.inverse();
-  const double motion_log_norm =
-      -0.5 * (std::log(motion_cov.determinant()) + 3 * 1.8378770664093453);
-  auto logMotion = [&](const Particle& p) {
-    const Pose2 moved = p.anchor.between(p.pose);
-    const Eigen::Vector3d d(moved.x - u.x, moved.y - u.y, wrapAngle(moved.theta - u.theta));
-    return motion_log_norm - 0.5 * d.dot(motion_inv * d);
-  };
+  const MotionDensity motion_density(since_update_, mix);
   Eigen::Matrix3d chol_r = Eigen::Matrix3d::Zero();
   if (n_dual > 0) chol_r = r.llt().matrixL();
 
-  // (3) Sample, weight, and update each particle's Kalman filter of the landmark.
   std::vector<char> outlier(m, 0);
   forEachParticle([&](size_t i) {
     Particle& p = particles_[i];
@@ -372,7 +350,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
       p.dual = false;
     }
     const Innovation in = innovation(lm, p.pose, y, r);
-    const double lp_y = robustLogLikelihood(in);  // target: robust likelihood
+    const double lp_y = robust_likelihood.log(in);  // target: robust likelihood
     if (all_dual) {
       p.log_weight = 0;  // kidnapped: uniform importance factors (paper 6.2)
     } else if (n_dual == 0) {
@@ -380,13 +358,13 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     } else {
       // The proposal's dual component is the Gaussian the dual particles
       // were drawn from; the target's likelihood is the robust one.
-      const double lp_motion = logMotion(p);
+      const double lp_motion = motion_density.log(p);
       const double a = log_1_rho + lp_motion, b = log_rho + in.log_likelihood;
       const double log_g = std::max(a, b) + std::log1p(std::exp(-std::abs(a - b)));
       p.log_weight = log_w[i] + lp_motion + lp_y - log_g;
     }
     // Gate: an outlier for this particle leaves its landmark filter alone.
-    if (robust && in.mahalanobis_sq > op.gate_mahalanobis_sq) {
+    if (robust_likelihood.robust() && in.mahalanobis_sq > op.gate_mahalanobis_sq) {
       outlier[i] = 1;
     } else {
       kalmanUpdate(lm, in, r);
@@ -394,27 +372,89 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     p.anchor = p.pose;
   });
   since_update_ = PoseWithCovariance();
+  int num_outliers = 0;
+  for (char o : outlier) num_outliers += o;
+  return num_outliers;
+}
 
-  for (char o : outlier) rep.num_outliers += o;
-  normalize();
-  rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
-  if (kidnapped_ && confirmed_by_cluster) {
-    kidnapped_ = false;
-    rep.recovered = true;
-    recover_count_ = 0;
-    recover_landmarks_.clear();
+bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double agreement,
+                                bool suspect, UpdateReport* rep, bool* confirmed_by_cluster) {
+  const KidnapParams& kp = params_.kidnap;
+  const MixtureParams& mix = params_.mixture;
+  bool all_dual = false;
+  if (kidnapped_) {
+    if (kp.recover_window_s > 0) {
+      pushBounded(reloc_run_, implied(obs, slot));
+      const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
+      reloc_run_.erase(
+          std::remove_if(reloc_run_.begin(), reloc_run_.end(),
+                         [&](const Implied& e) { return obs.utime - e.utime > window; }),
+          reloc_run_.end());
+      *confirmed_by_cluster =
+          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks;
+    }
+    if (agreement >= kp.recover_agreement) {
+      ++recover_count_;
+      if (std::find(recover_landmarks_.begin(), recover_landmarks_.end(), obs.landmark_id) ==
+          recover_landmarks_.end())
+        recover_landmarks_.push_back(obs.landmark_id);
+    } else {
+      recover_count_ = 0;
+      recover_landmarks_.clear();
+    }
+    if (recover_count_ >= kp.recover_count &&
+        static_cast<int>(recover_landmarks_.size()) >= kp.recover_landmarks) {
+      kidnapped_ = false;
+      rep->recovered = true;
+      smoothed_agreement_ = agreement;
+      recover_count_ = 0;
+      recover_landmarks_.clear();
+    } else {
+      // Still kidnapped; if the cluster confirmed it, this is the last
+      // all-dual draw, from this measurement (one of the cluster).
+      all_dual = true;
+    }
+  } else {
+    // A run of inconsistent measurements in a row (KidnapParams). A known
+    // look-alike's inconsistent measurement neither extends nor ends it.
+    if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
+    if (agreement < kp.detect_agreement) {
+      if (!suspect) pushBounded(low_run_, implied(obs, slot));
+    } else {
+      endLowRun();
+    }
+    const std::optional<Pose2> evidence =
+        static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
+    if (evidence) {
+      const PoseEstimate now = estimate();
+      const Pose2 from = now.mean;
+      rep->evidence = true;
+      rep->jump = {evidence->x - from.x, evidence->y - from.y,
+                   wrapAngle(evidence->theta - from.theta)};
+      rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
+      low_run_.clear();
+      if (kp.drift_gate_mahalanobis_sq > 0 &&
+          rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
+        // Drift: every particle moves by the jump (keeping its spread and
+        // map); this measurement then weighs them as usual.
+        shiftParticles(evidence->compose(from.inverse()));
+        rep->drift_corrected = true;
+        smoothed_agreement_ = 1;
+      } else {
+        held_ = from;  // published until the relocalization is confirmed
+        kidnapped_ = true;
+        rep->kidnap_detected = true;
+        reloc_run_.clear();
+        recover_count_ = 0;
+        recover_landmarks_.clear();
+        all_dual = true;
+      }
+    }
   }
-  if (!kidnapped_) reloc_run_.clear();
-  rep.num_dual = static_cast<int>(n_dual);
-  rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
-  rep.smoothed_agreement = smoothed_agreement_;
-  rep.ess = effectiveSampleSize();
-  last_dual_ratio_ = rep.dual_ratio;
-  if (rep.ess < params_.resample_ess_fraction * static_cast<double>(m)) {
-    resample();
-    rep.resampled = true;
+  if (!all_dual) {
+    smoothed_agreement_ += mix.agreement_smoothing * (agreement - smoothed_agreement_);
   }
-  return rep;
+  return all_dual;
 }
 
 std::vector<double> ParticleFilter::normalizedLogWeights() const {

@@ -313,6 +313,22 @@ class ParticleFilter {
   // given normalizedLogWeights().
   double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
                        const std::vector<double>& log_w) const;
+  // update()'s step 3, the mixture proposal: n_dual particles drawn from the
+  // measurement (all if all_dual: uniform weights), the others kept from the
+  // motion model, each weighed and its landmark's Kalman filter updated
+  // unless the measurement is an outlier for it. Returns the outliers.
+  int drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Matrix3d& r,
+                   const std::vector<double>& log_w, uint64_t n_dual, bool all_dual, uint64_t k);
+  // The report of a measurement left unused while kidnapped (no particle changes).
+  UpdateReport unusedWhileKidnapped() const;
+  // Kidnap detection and recovery for a measurement of the landmark in
+  // `slot` with this agreement (update()'s step 2): fills rep's kidnap
+  // fields, moves the particles on drift; returns whether this update draws
+  // every particle from the measurement (kidnapped), and sets
+  // *confirmed_by_cluster if the recovery window confirmed a relocalization
+  // (it ends after that draw).
+  bool updateMode(uint32_t slot, const Observation& obs, double agreement, bool suspect,
+                  UpdateReport* rep, bool* confirmed_by_cluster);
   // A consistent measurement ends the run of inconsistent ones: every
   // landmark in it was seen somewhere it is not.
   void endLowRun();
