@@ -37,6 +37,124 @@ void copyCovariance(const Eigen::Matrix3d& c, double* out) {
   }
 }
 
+void loadMixture(const config::ConfigNode& mx, backend::MixtureParams& m) {
+  using config::InRange;
+  m.dual_ratio_min = mx.getDouble("dual_ratio_min", m.dual_ratio_min, InRange{0, 1});
+  m.dual_ratio_max = mx.getDouble("dual_ratio_max", m.dual_ratio_max, InRange{0, 1});
+  if (m.dual_ratio_max < m.dual_ratio_min)
+    throw mx.error("dual_ratio_max", "must be at least dual_ratio_min");
+  m.agreement_smoothing =
+      mx.getDouble("agreement_smoothing", m.agreement_smoothing, InRange{1e-3, 1});
+  m.motion_min_sigma_xy_m =
+      mx.getDouble("motion_min_sigma_xy_m", m.motion_min_sigma_xy_m, InRange{1e-4, 100});
+  m.motion_min_sigma_theta_rad = degToRad(mx.getDouble(
+      "motion_min_sigma_theta_deg", radToDeg(m.motion_min_sigma_theta_rad), InRange{1e-3, 180}));
+  mx.requireAllKeysUsed();
+}
+
+void loadOutlier(const config::ConfigNode& ol, backend::OutlierParams& o) {
+  using config::InRange;
+  o.probability = ol.getDouble("probability", o.probability, InRange{0, 0.999});
+  o.area_m2 = ol.getDouble("area_m2", o.area_m2, InRange{1e-3, 1e9});
+  o.gate_mahalanobis_sq =
+      ol.getDouble("gate_mahalanobis_sq", o.gate_mahalanobis_sq, InRange{1e-3, 1e9});
+  ol.requireAllKeysUsed();
+}
+
+void loadKidnap(const config::ConfigNode& kd, backend::KidnapParams& k) {
+  using config::InRange;
+  k.detect_agreement = kd.getDouble("detect_agreement", k.detect_agreement, InRange{0, 1});
+  k.detect_count = static_cast<int>(kd.getInt("detect_count", k.detect_count, InRange{1, 1000}));
+  k.recover_agreement = kd.getDouble("recover_agreement", k.recover_agreement, InRange{0, 1});
+  k.recover_count = static_cast<int>(kd.getInt("recover_count", k.recover_count, InRange{1, 1000}));
+  k.detect_landmarks =
+      static_cast<int>(kd.getInt("detect_landmarks", k.detect_landmarks, InRange{1, 1000}));
+  // The defaults are the struct's (backend/particle_filter.hpp).
+  k.detect_min_span_s = kd.getDouble("detect_min_span_s", k.detect_min_span_s, InRange{0, 600});
+  k.cluster_xy_m = kd.getDouble("cluster_xy_m", k.cluster_xy_m, InRange{1e-3, 100});
+  k.cluster_theta_rad =
+      degToRad(kd.getDouble("cluster_deg", radToDeg(k.cluster_theta_rad), InRange{1e-3, 180}));
+  k.suspect_after = static_cast<int>(kd.getInt("suspect_after", k.suspect_after, InRange{0, 1000}));
+  k.recover_landmarks =
+      static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
+  k.recover_window_s = kd.getDouble("recover_window_s", k.recover_window_s, InRange{0, 600});
+  k.drift_gate_mahalanobis_sq =
+      kd.getDouble("drift_gate_mahalanobis_sq", k.drift_gate_mahalanobis_sq, InRange{0, 1e6});
+  k.drift_sigma_scale = kd.getDouble("drift_sigma_scale", k.drift_sigma_scale, InRange{1e-3, 1000});
+  kd.requireAllKeysUsed();
+}
+
+void loadOdometryCalibration(const config::ConfigNode& oc, backend::OdometryCalibrationParams& c) {
+  using config::InRange;
+  // The defaults are the struct's (backend/odometry_calibration.hpp).
+  c.enabled = oc.getBool("enabled", c.enabled);
+  c.adopt = oc.getBool("adopt", c.adopt);
+  c.min_travel = oc.getDouble("min_travel", c.min_travel, InRange{1e-3, 100});
+  c.max_travel = oc.getDouble("max_travel", c.max_travel, InRange{1e-3, 1000});
+  c.max_span_s = oc.getDouble("max_span_s", c.max_span_s, InRange{1e-3, 3600});
+  c.max_residual_m = oc.getDouble("max_residual_m", c.max_residual_m, InRange{1e-3, 100});
+  c.max_residual_rad =
+      degToRad(oc.getDouble("max_residual_deg", radToDeg(c.max_residual_rad), InRange{1e-3, 180}));
+  c.min_pairs = static_cast<int>(oc.getInt("min_pairs", c.min_pairs, InRange{3, 1e6}));
+  c.max_pairs = static_cast<int>(oc.getInt("max_pairs", c.max_pairs, InRange{3, 1e7}));
+  if (c.max_pairs < c.min_pairs) throw oc.error("max_pairs", "must be at least min_pairs");
+  if (c.max_travel <= c.min_travel) throw oc.error("max_travel", "must exceed min_travel");
+  oc.requireAllKeysUsed();
+}
+
+void loadMapCorrection(const config::ConfigNode& mc, backend::MapCorrectionParams& m,
+                       const MotionNoise& motion) {
+  using config::InRange;
+  m.enabled = mc.getBool("enabled", m.enabled);
+  m.solve_interval_s = mc.getDouble("solve_interval_s", m.solve_interval_s, InRange{0, 3600});
+  m.max_outlier_fraction =
+      mc.getDouble("max_outlier_fraction", m.max_outlier_fraction, InRange{0, 1});
+  m.measurement_min_interval_s =
+      mc.getDouble("measurement_min_interval_s", m.measurement_min_interval_s, InRange{0, 3600});
+  m.creation_max_age_s =
+      mc.getDouble("creation_max_age_s", m.creation_max_age_s, InRange{0.01, 3600});
+  m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", m.kidnap_jump_m, InRange{1e-3, 1000});
+  m.kidnap_jump_rad =
+      degToRad(mc.getDouble("kidnap_jump_deg", radToDeg(m.kidnap_jump_rad), InRange{1e-3, 180}));
+  m.landmark_sigma_xy_m =
+      mc.getDouble("landmark_sigma_xy_m", m.landmark_sigma_xy_m, InRange{1e-4, 10});
+  m.landmark_sigma_theta_rad = degToRad(mc.getDouble(
+      "landmark_sigma_theta_deg", radToDeg(m.landmark_sigma_theta_rad), InRange{1e-3, 90}));
+  backend::PoseGraphParams& g = m.graph;
+  // The odometry noise is the motion model's.
+  g.sigma_translation = std::max(motion.sigma_translation, 1e-4);
+  g.sigma_rotation = std::max(motion.sigma_rotation, 1e-4);
+  g.measurement_sigma_xy_m =
+      mc.getDouble("measurement_sigma_xy_m", g.measurement_sigma_xy_m, InRange{1e-4, 10});
+  g.measurement_sigma_xy_per_m =
+      mc.getDouble("measurement_sigma_xy_per_m", g.measurement_sigma_xy_per_m, InRange{0, 10});
+  g.measurement_sigma_theta_rad = degToRad(mc.getDouble(
+      "measurement_sigma_theta_deg", radToDeg(g.measurement_sigma_theta_rad), InRange{1e-3, 90}));
+  g.measurement_sigma_theta_rad_per_m =
+      degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m",
+                            radToDeg(g.measurement_sigma_theta_rad_per_m), InRange{0, 90}));
+  g.max_measurement_distance_m =
+      mc.getDouble("max_measurement_distance_m", g.max_measurement_distance_m, InRange{1e-3, 100});
+  // The defaults of the robust loss are the struct's (backend/pose_graph.hpp).
+  if (mc.has("robust_loss")) {
+    g.robust_loss = mc.getEnum("robust_loss", {"huber", "cauchy"}) == "huber"
+                        ? backend::PoseGraphParams::RobustLoss::kHuber
+                        : backend::PoseGraphParams::RobustLoss::kCauchy;
+  }
+  g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
+  g.max_iterations =
+      static_cast<int>(mc.getInt("max_iterations", g.max_iterations, InRange{1, 1000}));
+  g.odometry_gate_mahalanobis_sq =
+      mc.getDouble("odometry_gate_mahalanobis_sq", g.odometry_gate_mahalanobis_sq, InRange{0, 1e6});
+  g.min_agreeing = static_cast<int>(mc.getInt("min_agreeing", g.min_agreeing, InRange{0, 1000}));
+  g.segment_prior_sigma_xy_m =
+      mc.getDouble("segment_prior_sigma_xy_m", g.segment_prior_sigma_xy_m, InRange{1e-3, 100});
+  g.segment_prior_sigma_theta_rad =
+      degToRad(mc.getDouble("segment_prior_sigma_theta_deg",
+                            radToDeg(g.segment_prior_sigma_theta_rad), InRange{1e-3, 180}));
+  mc.requireAllKeysUsed();
+}
+
 }  // namespace
 
 BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
@@ -90,126 +208,13 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
 
   rejectInstancePrefilter(node);
   b.prefilter = prefilter;
-  if (node.has("mixture")) {
-    const config::ConfigNode mx = node.child("mixture");
-    backend::MixtureParams& m = f.mixture;
-    m.dual_ratio_min = mx.getDouble("dual_ratio_min", m.dual_ratio_min, InRange{0, 1});
-    m.dual_ratio_max = mx.getDouble("dual_ratio_max", m.dual_ratio_max, InRange{0, 1});
-    if (m.dual_ratio_max < m.dual_ratio_min)
-      throw mx.error("dual_ratio_max", "must be at least dual_ratio_min");
-    m.agreement_smoothing =
-        mx.getDouble("agreement_smoothing", m.agreement_smoothing, InRange{1e-3, 1});
-    m.motion_min_sigma_xy_m =
-        mx.getDouble("motion_min_sigma_xy_m", m.motion_min_sigma_xy_m, InRange{1e-4, 100});
-    m.motion_min_sigma_theta_rad = degToRad(mx.getDouble(
-        "motion_min_sigma_theta_deg", radToDeg(m.motion_min_sigma_theta_rad), InRange{1e-3, 180}));
-    mx.requireAllKeysUsed();
-  }
-  if (node.has("outlier")) {
-    const config::ConfigNode ol = node.child("outlier");
-    backend::OutlierParams& o = f.outlier;
-    o.probability = ol.getDouble("probability", o.probability, InRange{0, 0.999});
-    o.area_m2 = ol.getDouble("area_m2", 25.0, InRange{1e-3, 1e9});
-    o.gate_mahalanobis_sq =
-        ol.getDouble("gate_mahalanobis_sq", o.gate_mahalanobis_sq, InRange{1e-3, 1e9});
-    ol.requireAllKeysUsed();
-  }
-  if (node.has("kidnap")) {
-    const config::ConfigNode kd = node.child("kidnap");
-    backend::KidnapParams& k = f.kidnap;
-    k.detect_agreement = kd.getDouble("detect_agreement", k.detect_agreement, InRange{0, 1});
-    k.detect_count = static_cast<int>(kd.getInt("detect_count", k.detect_count, InRange{1, 1000}));
-    k.recover_agreement = kd.getDouble("recover_agreement", k.recover_agreement, InRange{0, 1});
-    k.recover_count =
-        static_cast<int>(kd.getInt("recover_count", k.recover_count, InRange{1, 1000}));
-    k.detect_landmarks =
-        static_cast<int>(kd.getInt("detect_landmarks", k.detect_landmarks, InRange{1, 1000}));
-    // The defaults are the struct's (backend/particle_filter.hpp).
-    k.detect_min_span_s = kd.getDouble("detect_min_span_s", k.detect_min_span_s, InRange{0, 600});
-    k.cluster_xy_m = kd.getDouble("cluster_xy_m", k.cluster_xy_m, InRange{1e-3, 100});
-    k.cluster_theta_rad =
-        degToRad(kd.getDouble("cluster_deg", radToDeg(k.cluster_theta_rad), InRange{1e-3, 180}));
-    k.suspect_after =
-        static_cast<int>(kd.getInt("suspect_after", k.suspect_after, InRange{0, 1000}));
-    k.recover_landmarks =
-        static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
-    k.recover_window_s = kd.getDouble("recover_window_s", k.recover_window_s, InRange{0, 600});
-    k.drift_gate_mahalanobis_sq =
-        kd.getDouble("drift_gate_mahalanobis_sq", k.drift_gate_mahalanobis_sq, InRange{0, 1e6});
-    k.drift_sigma_scale =
-        kd.getDouble("drift_sigma_scale", k.drift_sigma_scale, InRange{1e-3, 1000});
-    kd.requireAllKeysUsed();
-  }
-  if (node.has("odometry_calibration")) {
-    // The defaults are the struct's (backend/odometry_calibration.hpp).
-    const config::ConfigNode oc = node.child("odometry_calibration");
-    backend::OdometryCalibrationParams& c = b.odometry_calibration;
-    c.enabled = oc.getBool("enabled", c.enabled);
-    c.adopt = oc.getBool("adopt", c.adopt);
-    c.min_travel = oc.getDouble("min_travel", c.min_travel, InRange{1e-3, 100});
-    c.max_travel = oc.getDouble("max_travel", c.max_travel, InRange{1e-3, 1000});
-    c.max_span_s = oc.getDouble("max_span_s", c.max_span_s, InRange{1e-3, 3600});
-    c.max_residual_m = oc.getDouble("max_residual_m", c.max_residual_m, InRange{1e-3, 100});
-    c.max_residual_rad = degToRad(
-        oc.getDouble("max_residual_deg", radToDeg(c.max_residual_rad), InRange{1e-3, 180}));
-    c.min_pairs = static_cast<int>(oc.getInt("min_pairs", c.min_pairs, InRange{3, 1e6}));
-    c.max_pairs = static_cast<int>(oc.getInt("max_pairs", c.max_pairs, InRange{3, 1e7}));
-    if (c.max_pairs < c.min_pairs) throw oc.error("max_pairs", "must be at least min_pairs");
-    if (c.max_travel <= c.min_travel) throw oc.error("max_travel", "must exceed min_travel");
-    oc.requireAllKeysUsed();
-  }
-  if (node.has("map_correction")) {
-    const config::ConfigNode mc = node.child("map_correction");
-    backend::MapCorrectionParams& m = b.map_correction;
-    m.enabled = mc.getBool("enabled", m.enabled);
-    m.solve_interval_s = mc.getDouble("solve_interval_s", m.solve_interval_s, InRange{0, 3600});
-    m.max_outlier_fraction =
-        mc.getDouble("max_outlier_fraction", m.max_outlier_fraction, InRange{0, 1});
-    m.measurement_min_interval_s =
-        mc.getDouble("measurement_min_interval_s", m.measurement_min_interval_s, InRange{0, 3600});
-    m.creation_max_age_s =
-        mc.getDouble("creation_max_age_s", m.creation_max_age_s, InRange{0.01, 3600});
-    m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", m.kidnap_jump_m, InRange{1e-3, 1000});
-    m.kidnap_jump_rad =
-        degToRad(mc.getDouble("kidnap_jump_deg", radToDeg(m.kidnap_jump_rad), InRange{1e-3, 180}));
-    m.landmark_sigma_xy_m =
-        mc.getDouble("landmark_sigma_xy_m", m.landmark_sigma_xy_m, InRange{1e-4, 10});
-    m.landmark_sigma_theta_rad = degToRad(mc.getDouble(
-        "landmark_sigma_theta_deg", radToDeg(m.landmark_sigma_theta_rad), InRange{1e-3, 90}));
-    backend::PoseGraphParams& g = m.graph;
-    // The odometry noise is the motion model's.
-    g.sigma_translation = std::max(f.motion.sigma_translation, 1e-4);
-    g.sigma_rotation = std::max(f.motion.sigma_rotation, 1e-4);
-    g.measurement_sigma_xy_m =
-        mc.getDouble("measurement_sigma_xy_m", g.measurement_sigma_xy_m, InRange{1e-4, 10});
-    g.measurement_sigma_xy_per_m =
-        mc.getDouble("measurement_sigma_xy_per_m", g.measurement_sigma_xy_per_m, InRange{0, 10});
-    g.measurement_sigma_theta_rad = degToRad(mc.getDouble(
-        "measurement_sigma_theta_deg", radToDeg(g.measurement_sigma_theta_rad), InRange{1e-3, 90}));
-    g.measurement_sigma_theta_rad_per_m =
-        degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m",
-                              radToDeg(g.measurement_sigma_theta_rad_per_m), InRange{0, 90}));
-    g.max_measurement_distance_m = mc.getDouble("max_measurement_distance_m",
-                                                g.max_measurement_distance_m, InRange{1e-3, 100});
-    // The defaults of the robust loss are the struct's (backend/pose_graph.hpp).
-    if (mc.has("robust_loss")) {
-      g.robust_loss = mc.getEnum("robust_loss", {"huber", "cauchy"}) == "huber"
-                          ? backend::PoseGraphParams::RobustLoss::kHuber
-                          : backend::PoseGraphParams::RobustLoss::kCauchy;
-    }
-    g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
-    g.max_iterations =
-        static_cast<int>(mc.getInt("max_iterations", g.max_iterations, InRange{1, 1000}));
-    g.odometry_gate_mahalanobis_sq = mc.getDouble("odometry_gate_mahalanobis_sq",
-                                                  g.odometry_gate_mahalanobis_sq, InRange{0, 1e6});
-    g.min_agreeing = static_cast<int>(mc.getInt("min_agreeing", g.min_agreeing, InRange{0, 1000}));
-    g.segment_prior_sigma_xy_m =
-        mc.getDouble("segment_prior_sigma_xy_m", g.segment_prior_sigma_xy_m, InRange{1e-3, 100});
-    g.segment_prior_sigma_theta_rad =
-        degToRad(mc.getDouble("segment_prior_sigma_theta_deg",
-                              radToDeg(g.segment_prior_sigma_theta_rad), InRange{1e-3, 180}));
-    mc.requireAllKeysUsed();
-  }
+  if (node.has("mixture")) loadMixture(node.child("mixture"), f.mixture);
+  if (node.has("outlier")) loadOutlier(node.child("outlier"), f.outlier);
+  if (node.has("kidnap")) loadKidnap(node.child("kidnap"), f.kidnap);
+  if (node.has("odometry_calibration"))
+    loadOdometryCalibration(node.child("odometry_calibration"), b.odometry_calibration);
+  if (node.has("map_correction"))
+    loadMapCorrection(node.child("map_correction"), b.map_correction, f.motion);
   p.odometry_channel = robot.channels.odometry;
   p.landmark_update_channel = robot.channels.landmark_update;
   p.landmark_proposal_channel = robot.channels.landmark_proposal;
