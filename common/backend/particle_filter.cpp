@@ -207,18 +207,13 @@ UpdateReport ParticleFilter::initialize(uint32_t slot, const Observation& obs,
     p.anchor = p.pose;
   });
   since_update_ = PoseWithCovariance();
-  UpdateReport rep;
-  rep.kind = UpdateKind::kInitialized;
-  rep.agreement = 1;
-  rep.smoothed_agreement = smoothed_agreement_;
-  rep.ess = effectiveSampleSize();
-  return rep;
+  return unweighedReport(UpdateKind::kInitialized, 1);
 }
 
-UpdateReport ParticleFilter::unusedWhileKidnapped() const {
+UpdateReport ParticleFilter::unweighedReport(UpdateKind kind, double agreement) const {
   UpdateReport rep;
-  rep.kind = UpdateKind::kKidnapped;
-  rep.agreement = 0;
+  rep.kind = kind;
+  rep.agreement = agreement;
   rep.smoothed_agreement = smoothed_agreement_;
   rep.ess = effectiveSampleSize();
   return rep;
@@ -237,7 +232,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     // happened (a carried robot that makes new landmarks before it sees an
     // old one "recovered" where the look-alike that declared the kidnapping
     // put it). It is mapped at its first measurement after the relocalization.
-    UpdateReport rep = unusedWhileKidnapped();
+    UpdateReport rep = unweighedReport(UpdateKind::kKidnapped, 0);
     rep.deferred = true;
     return rep;
   }
@@ -251,7 +246,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const bool suspect = isSuspect(slot);
   if (kidnapped_ && suspect) {
     // A known look-alike neither proposes nor confirms a relocalization.
-    UpdateReport rep = unusedWhileKidnapped();
+    UpdateReport rep = unweighedReport(UpdateKind::kKidnapped, 0);
     rep.suspect = true;
     return rep;
   }

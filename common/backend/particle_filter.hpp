@@ -319,8 +319,9 @@ class ParticleFilter {
   // unless the measurement is an outlier for it. Returns the outliers.
   int drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Matrix3d& r,
                    const std::vector<double>& log_w, uint64_t n_dual, bool all_dual, uint64_t k);
-  // The report of a measurement left unused while kidnapped (no particle changes).
-  UpdateReport unusedWhileKidnapped() const;
+  // The report of a measurement that changed no weight (a new landmark, or
+  // one left unused while kidnapped).
+  UpdateReport unweighedReport(UpdateKind kind, double agreement) const;
   // Kidnap detection and recovery for a measurement of the landmark in
   // `slot` with this agreement (update()'s step 2): fills rep's kidnap
   // fields, moves the particles on drift; returns whether this update draws
