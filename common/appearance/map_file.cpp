@@ -6,70 +6,17 @@
 #include <map>
 #include <sstream>
 
+#include "util/sqlite.hpp"
+
 namespace vslam::appearance {
 namespace {
 
 constexpr const char* kFormat = "vslam-appearance-map";
 constexpr const char* kVersion = "1";
 
-class Db {
- public:
-  Db(const std::filesystem::path& file, int flags) : file_(file.string()) {
-    if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
-      const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
-      sqlite3_close(db_);
-      db_ = nullptr;
-      throw MapFileError(file_ + ": " + why);
-    }
-  }
-  ~Db() { sqlite3_close(db_); }
-  Db(const Db&) = delete;
-  Db& operator=(const Db&) = delete;
+using Db = sqlite::Database<MapFileError>;
 
-  void exec(const std::string& sql) {
-    char* err = nullptr;
-    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-      const std::string why = err ? err : "unknown error";
-      sqlite3_free(err);
-      throw MapFileError(file_ + ": " + why);
-    }
-  }
-  sqlite3* get() { return db_; }
-  [[noreturn]] void fail(const std::string& what) {
-    throw MapFileError(file_ + ": " + what + ": " + sqlite3_errmsg(db_));
-  }
-  const std::string& name() const { return file_; }
-
- private:
-  std::string file_;
-  sqlite3* db_ = nullptr;
-};
-
-class Statement {
- public:
-  Statement(Db& db, const char* sql) : db_(db) {
-    if (sqlite3_prepare_v2(db.get(), sql, -1, &stmt_, nullptr) != SQLITE_OK) db.fail(sql);
-  }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-  sqlite3_stmt* get() { return stmt_; }
-  bool step() {
-    const int rc = sqlite3_step(stmt_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc != SQLITE_DONE) db_.fail("step");
-    return false;
-  }
-  void done() {
-    step();
-    sqlite3_reset(stmt_);
-    sqlite3_clear_bindings(stmt_);
-  }
-
- private:
-  Db& db_;
-  sqlite3_stmt* stmt_ = nullptr;
-};
+using Statement = sqlite::Statement<MapFileError>;
 
 // Little-endian encoding (the machines we run on are little-endian; the
 // static_assert keeps it honest).
@@ -80,16 +27,6 @@ std::vector<uint8_t> toBlob(const T* values, size_t n) {
   if (n > 0) std::memcpy(out.data(), values, out.size());
   return out;
 }
-template <class T>
-bool fromBlob(sqlite3_stmt* s, int column, std::vector<T>* out) {
-  const int bytes = sqlite3_column_bytes(s, column);
-  if (bytes % static_cast<int>(sizeof(T)) != 0) return false;
-  out->resize(static_cast<size_t>(bytes) / sizeof(T));
-  if (bytes > 0)
-    std::memcpy(out->data(), sqlite3_column_blob(s, column), static_cast<size_t>(bytes));
-  return true;
-}
-
 std::string joinCameras(const std::vector<std::string>& cameras) {
   std::string s;
   for (size_t i = 0; i < cameras.size(); ++i) s += (i ? "," : "") + cameras[i];
@@ -128,28 +65,28 @@ void saveMap(const std::filesystem::path& file, const SavedMap& map) {
                                                           {"bins", std::to_string(map.bins)},
                                                           {"cameras", joinCameras(map.cameras)}};
       for (const auto& [k, v] : rows) {
-        sqlite3_bind_text(meta.get(), 1, k.c_str(), -1, SQLITE_TRANSIENT);
-        sqlite3_bind_text(meta.get(), 2, v.c_str(), -1, SQLITE_TRANSIENT);
-        meta.done();
+        meta.bind(1, k);
+        meta.bind(2, v);
+        meta.run();
       }
     }
     {
       Statement st(db, "INSERT INTO states VALUES (?, ?, ?, ?, ?)");
       Statement hist(db, "INSERT INTO histograms VALUES (?, ?, ?)");
       for (const auto& s : map.states) {
-        sqlite3_bind_int64(st.get(), 1, s.id);
-        sqlite3_bind_int64(st.get(), 2, s.utime);
-        sqlite3_bind_double(st.get(), 3, s.odometry.x);
-        sqlite3_bind_double(st.get(), 4, s.odometry.y);
-        sqlite3_bind_double(st.get(), 5, s.odometry.theta);
-        st.done();
+        st.bind(1, s.id);
+        st.bind(2, s.utime);
+        st.bind(3, s.odometry.x);
+        st.bind(4, s.odometry.y);
+        st.bind(5, s.odometry.theta);
+        st.run();
         for (size_t c = 0; c < s.histograms.size(); ++c) {
           const auto blob = toBlob(s.histograms[c].data(), s.histograms[c].size());
-          sqlite3_bind_int64(hist.get(), 1, s.id);
-          sqlite3_bind_int(hist.get(), 2, static_cast<int>(c));
+          hist.bind(1, s.id);
+          hist.bind(2, static_cast<int64_t>(c));
           sqlite3_bind_blob(hist.get(), 3, blob.data(), static_cast<int>(blob.size()),
                             SQLITE_TRANSIENT);
-          hist.done();
+          hist.run();
         }
       }
     }
@@ -158,19 +95,19 @@ void saveMap(const std::filesystem::path& file, const SavedMap& map) {
       for (size_t i = 0; i < map.path.size(); ++i) {
         const auto& v = map.path[i];
         const Link& l = v.link;
-        sqlite3_bind_int64(p.get(), 1, static_cast<int64_t>(i));
-        sqlite3_bind_int64(p.get(), 2, v.state_id);
-        sqlite3_bind_int(p.get(), 3, (i > 0 && l.known) ? 1 : 0);
-        sqlite3_bind_double(p.get(), 4, l.action.x);
-        sqlite3_bind_double(p.get(), 5, l.action.y);
-        sqlite3_bind_double(p.get(), 6, l.action.theta);
-        sqlite3_bind_double(p.get(), 7, l.model.relative_translation);
-        sqlite3_bind_double(p.get(), 8, l.model.relative_rotation);
-        sqlite3_bind_double(p.get(), 9, l.model.odometry_translation);
-        sqlite3_bind_double(p.get(), 10, l.model.odometry_rotation);
+        p.bind(1, static_cast<int64_t>(i));
+        p.bind(2, v.state_id);
+        p.bind(3, int64_t{(i > 0 && l.known) ? 1 : 0});
+        p.bind(4, l.action.x);
+        p.bind(5, l.action.y);
+        p.bind(6, l.action.theta);
+        p.bind(7, l.model.relative_translation);
+        p.bind(8, l.model.relative_rotation);
+        p.bind(9, l.model.odometry_translation);
+        p.bind(10, l.model.odometry_rotation);
         const auto cov = toBlob(l.covariance.data(), 9);  // symmetric: row- = column-major
         sqlite3_bind_blob(p.get(), 11, cov.data(), static_cast<int>(cov.size()), SQLITE_TRANSIENT);
-        p.done();
+        p.run();
       }
     }
     db.exec("COMMIT;");
@@ -220,10 +157,9 @@ SavedMap loadMap(const std::filesystem::path& file) {
                 "SELECT state_id, utime, odom_x, odom_y, odom_theta FROM states ORDER BY rowid");
     while (s.step()) {
       State st;
-      st.id = sqlite3_column_int64(s.get(), 0);
-      st.utime = sqlite3_column_int64(s.get(), 1);
-      st.odometry = {sqlite3_column_double(s.get(), 2), sqlite3_column_double(s.get(), 3),
-                     sqlite3_column_double(s.get(), 4)};
+      st.id = s.int64(0);
+      st.utime = s.int64(1);
+      st.odometry = {s.real(2), s.real(3), s.real(4)};
       if (st.id < 0) throw MapFileError(name + ": negative state id");
       st.histograms.assign(m.cameras.size(), Histogram{});
       index[st.id] = m.states.size();
@@ -233,15 +169,15 @@ SavedMap loadMap(const std::filesystem::path& file) {
   {
     Statement s(db, "SELECT state_id, camera, bins FROM histograms");
     while (s.step()) {
-      const int64_t id = sqlite3_column_int64(s.get(), 0);
-      const int camera = sqlite3_column_int(s.get(), 1);
+      const int64_t id = s.int64(0);
+      const int camera = static_cast<int>(s.int64(1));
       const auto it = index.find(id);
       if (it == index.end() || camera < 0 || camera >= static_cast<int>(m.cameras.size())) {
         throw MapFileError(name + ": histogram of unknown state " + std::to_string(id) +
                            " / camera " + std::to_string(camera));
       }
       Histogram h;
-      if (!fromBlob(s.get(), 2, &h) || (!h.empty() && static_cast<int>(h.size()) != m.bins)) {
+      if (!s.blob(2, &h) || (!h.empty() && static_cast<int>(h.size()) != m.bins)) {
         throw MapFileError(name + ": histogram of state " + std::to_string(id) + " does not have " +
                            std::to_string(m.bins) + " bins");
       }
@@ -254,19 +190,18 @@ SavedMap loadMap(const std::filesystem::path& file) {
                 " odometry_translation, odometry_rotation, covariance FROM path ORDER BY seq");
     while (s.step()) {
       SavedMap::Visit v;
-      v.state_id = sqlite3_column_int64(s.get(), 0);
+      v.state_id = s.int64(0);
       if (!index.count(v.state_id)) {
         throw MapFileError(name + ": path visits unknown state " + std::to_string(v.state_id));
       }
-      v.link.known = sqlite3_column_int(s.get(), 1) != 0;
-      v.link.action = {sqlite3_column_double(s.get(), 2), sqlite3_column_double(s.get(), 3),
-                       sqlite3_column_double(s.get(), 4)};
-      v.link.model.relative_translation = sqlite3_column_double(s.get(), 5);
-      v.link.model.relative_rotation = sqlite3_column_double(s.get(), 6);
-      v.link.model.odometry_translation = sqlite3_column_double(s.get(), 7);
-      v.link.model.odometry_rotation = sqlite3_column_double(s.get(), 8);
+      v.link.known = s.int64(1) != 0;
+      v.link.action = {s.real(2), s.real(3), s.real(4)};
+      v.link.model.relative_translation = s.real(5);
+      v.link.model.relative_rotation = s.real(6);
+      v.link.model.odometry_translation = s.real(7);
+      v.link.model.odometry_rotation = s.real(8);
       std::vector<double> cov;
-      if (!fromBlob(s.get(), 9, &cov) || cov.size() != 9) {
+      if (!s.blob(9, &cov) || cov.size() != 9) {
         throw MapFileError(name + ": path row without a 3x3 covariance");
       }
       for (int i = 0; i < 9; ++i) v.link.covariance.data()[i] = cov[static_cast<size_t>(i)];

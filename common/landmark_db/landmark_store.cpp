@@ -9,6 +9,8 @@
 #include <map>
 #include <sstream>
 
+#include "util/sqlite.hpp"
+
 namespace vslam::landmark_db {
 namespace {
 
@@ -16,59 +18,7 @@ constexpr const char* kFormat = "vslam-landmark-map";
 
 static_assert(sizeof(float) == 4, "blobs are float32");
 
-class Statement {
- public:
-  Statement(sqlite3* db, const char* sql, const std::string& file) : db_(db), file_(file) {
-    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK) {
-      throw MapFileError(file_ + ": " + sqlite3_errmsg(db) + " (in: " + sql + ")");
-    }
-  }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-  sqlite3_stmt* get() { return stmt_; }
-  bool step() {
-    const int rc = sqlite3_step(stmt_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc != SQLITE_DONE) throw MapFileError(file_ + ": " + sqlite3_errmsg(db_));
-    return false;
-  }
-  void run() {
-    step();
-    sqlite3_reset(stmt_);
-    sqlite3_clear_bindings(stmt_);
-  }
-  void bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
-  void bind(int i, double v) { sqlite3_bind_double(stmt_, i, v); }
-  void bind(int i, const std::string& v) {
-    sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
-  }
-  template <class T>
-  void bindBlob(int i, const std::vector<T>& v) {
-    sqlite3_bind_blob(stmt_, i, v.empty() ? "" : static_cast<const void*>(v.data()),
-                      static_cast<int>(v.size() * sizeof(T)), SQLITE_TRANSIENT);
-  }
-  int64_t int64(int c) { return sqlite3_column_int64(stmt_, c); }
-  double real(int c) { return sqlite3_column_double(stmt_, c); }
-  std::string text(int c) {
-    const auto* t = sqlite3_column_text(stmt_, c);
-    return t ? reinterpret_cast<const char*>(t) : "";
-  }
-  template <class T>
-  bool blob(int c, size_t expected_count, std::vector<T>* out) {
-    const int bytes = sqlite3_column_bytes(stmt_, c);
-    if (bytes < 0 || static_cast<size_t>(bytes) != expected_count * sizeof(T)) return false;
-    out->resize(expected_count);
-    if (bytes > 0)
-      std::memcpy(out->data(), sqlite3_column_blob(stmt_, c), static_cast<size_t>(bytes));
-    return true;
-  }
-
- private:
-  sqlite3* db_;
-  std::string file_;
-  sqlite3_stmt* stmt_ = nullptr;
-};
+using Statement = sqlite::Statement<MapFileError>;
 
 constexpr const char* kInfoColumns =
     "landmark_id, camera, proposal_id, version, revision, created_utime, odom_x, odom_y,"
