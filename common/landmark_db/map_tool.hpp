@@ -1,5 +1,5 @@
 #pragma once
-// The landmark DB's configuration block and the vslam-map command line (no LCM).
+// The vslam-map command line (no LCM).
 //
 //   vslam-map info FILE                  counts, ids, size, regions, revision
 //   vslam-map list FILE                  one CSV line per landmark (statistics, poses)
@@ -17,15 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "config/config_node.hpp"
-#include "config/robot_config.hpp"
-#include "landmark_db/landmark_database.hpp"
+#include "landmark_db/database_config.hpp"
 
 namespace vslam::landmark_db {
-
-// The processes.<instance> keys the database itself reads (prune,
-// segmentation, allow_new_landmarks), with the robot's camera headings.
-DatabaseParams loadDatabaseParams(const config::ConfigNode& node, const config::RobotConfig& robot);
 
 int runMapTool(const std::vector<std::string>& args);
 

@@ -8,7 +8,7 @@
 #include <sstream>
 #include <vslam/landmark_summary_t.hpp>
 
-#include "landmark_db/map_tool.hpp"
+#include "landmark_db/database_config.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
