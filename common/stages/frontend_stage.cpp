@@ -16,9 +16,6 @@ namespace vslam::stages {
 namespace {
 
 constexpr int64_t kIdsPerCamera = 1000000000;
-constexpr Utime kMaxOdometryGap = 200000;  // us: no pose for a frame farther from any reading
-// Index ids of proposals the DB has not answered yet: far above any global id.
-constexpr int64_t kPendingIdBase = int64_t{1} << 62;
 constexpr Utime kMinRequestInterval = kMicrosPerSecond;  // between two replica sync requests
 
 frontend::LandmarkModel modelFromMessage(const vslam::landmark_t& l, int64_t id) {
@@ -54,17 +51,18 @@ std::string checkLandmarkMessage(const vslam::landmark_t& l) {
   return "";
 }
 
-FrontendParams FrontendParams::load(const config::ConfigNode& node,
-                                    const config::RobotConfig& robot,
-                                    const frontend::PrefilterParams& prefilter) {
-  FrontendParams p;
+FrontendStageParams FrontendStageParams::load(const config::ConfigNode& node,
+                                              const config::RobotConfig& robot,
+                                              const frontend::PrefilterParams& prefilter) {
+  FrontendStageParams p;
+  frontend::FrontendParams& f = p.frontend;
   rejectInstancePrefilter(node);
-  p.prefilter = prefilter;
+  f.prefilter = prefilter;
   const std::string camera = node.getString("camera");
   bool found = false;
   for (size_t i = 0; i < robot.cameras.size(); ++i) {
     if (robot.cameras[i].name == camera) {
-      p.camera = robot.cameras[i];
+      f.camera = robot.cameras[i];
       p.camera_number = static_cast<int>(i) + 1;
       found = true;
     }
@@ -79,30 +77,29 @@ FrontendParams FrontendParams::load(const config::ConfigNode& node,
   p.use_landmark_db = node.getEnum("landmark_db", {"required", "none"}) == "required";
   p.proposal_timeout_s =
       node.getDouble("proposal_timeout_s", p.proposal_timeout_s, config::InRange{0.1, 600});
-  p.creation_baseline_m =
-      node.getDouble("creation_baseline_m", p.creation_baseline_m, config::InRange{0.02, 2.0});
-  p.max_measurements_per_frame = static_cast<int>(node.getInt(
-      "max_measurements_per_frame", p.max_measurements_per_frame, config::InRange{1, 100}));
-  p.sift.nfeatures = static_cast<int>(
-      node.getInt("sift_max_features", p.sift.nfeatures, config::InRange{0, 100000}));
-  p.sift.gain_target_level =
-      node.getDouble("dim_frame_gain_target", p.sift.gain_target_level, config::InRange{0, 255});
-  p.sift.max_gain = node.getDouble("dim_frame_max_gain", p.sift.max_gain, config::InRange{1, 64});
-  p.recognition.ratio =
-      node.getDouble("match_ratio", p.recognition.ratio, config::InRange{0.1, 1.0});
-  p.creation.match.ratio = p.recognition.ratio;
-  p.recognition.min_matches = static_cast<int>(
-      node.getInt("min_matches", p.recognition.min_matches, config::InRange{4, 1000}));
+  f.creation_baseline_m =
+      node.getDouble("creation_baseline_m", f.creation_baseline_m, config::InRange{0.02, 2.0});
+  f.coverage_radius_m =
+      node.getDouble("coverage_radius_m", f.coverage_radius_m, config::InRange{0, 100});
+  f.max_measurements_per_frame = static_cast<int>(node.getInt(
+      "max_measurements_per_frame", f.max_measurements_per_frame, config::InRange{1, 100}));
+  f.sift.nfeatures = static_cast<int>(
+      node.getInt("sift_max_features", f.sift.nfeatures, config::InRange{0, 100000}));
+  f.sift.gain_target_level =
+      node.getDouble("dim_frame_gain_target", f.sift.gain_target_level, config::InRange{0, 255});
+  f.sift.max_gain = node.getDouble("dim_frame_max_gain", f.sift.max_gain, config::InRange{1, 64});
+  f.recognition.ratio =
+      node.getDouble("match_ratio", f.recognition.ratio, config::InRange{0.1, 1.0});
+  f.creation.match.ratio = f.recognition.ratio;
+  f.recognition.min_matches = static_cast<int>(
+      node.getInt("min_matches", f.recognition.min_matches, config::InRange{4, 1000}));
   return p;
 }
 
-FrontendStage::FrontendStage(FrontendParams params)
+FrontendStage::FrontendStage(FrontendStageParams params)
     : params_(std::move(params)),
-      extractor_(params_.camera, params_.sift),
-      creator_(params_.camera, params_.creation),
-      measurement_camera_(frontend::MeasurementCamera::fromConfig(params_.camera)),
-      index_(params_.recognition),
-      prefetch_extractor_(params_.camera, params_.sift) {}
+      frontend_(params_.frontend),
+      prefetch_extractor_(params_.frontend.camera, params_.frontend.sift) {}
 
 FrontendStage::~FrontendStage() { stop(); }
 
@@ -124,7 +121,7 @@ void FrontendStage::start(bus::StageContext& ctx) {
   }
   // A small queue: frames wait in the worker's one-slot mailbox, not in LCM.
   ctx.bus.subscribe<vslam::image_t>(
-      params_.camera.image_channel, [this](const vslam::image_t& m) { onImage(m); }, 2);
+      camera().image_channel, [this](const vslam::image_t& m) { onImage(m); }, 2);
 }
 
 void FrontendStage::drain() {
@@ -138,37 +135,10 @@ void FrontendStage::stop() {
 }
 
 void FrontendStage::onOdometry(const vslam::odometry_t& m) {
-  const Pose2 pose{m.x, m.y, m.theta};
-  if (!pose.isFinite()) {
+  if (frontend_.addOdometry(m.utime, Pose2{m.x, m.y, m.theta}) ==
+      frontend::Frontend::OdometryVerdict::kNotFinite) {
     ctx_->bus.reportMalformed(params_.odometry_channel, "non-finite odometry pose");
-    return;
   }
-  std::lock_guard<std::mutex> lock(odometry_mutex_);
-  if (!odometry_.empty() && m.utime <= odometry_.back().first) return;  // stale or duplicate
-  odometry_.emplace_back(m.utime, pose);
-  while (odometry_.size() > 500) odometry_.pop_front();  // 10 s at 50 Hz
-}
-
-bool FrontendStage::odometryAt(Utime t, Pose2* pose) {
-  std::lock_guard<std::mutex> lock(odometry_mutex_);
-  if (odometry_.empty()) return false;
-  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), t,
-                                      [](const auto& a, Utime v) { return a.first < v; });
-  if (after == odometry_.end()) {
-    if (t - odometry_.back().first > kMaxOdometryGap) return false;
-    *pose = odometry_.back().second;
-    return true;
-  }
-  if (after == odometry_.begin() || after->first == t) {
-    if (after->first - t > kMaxOdometryGap) return false;
-    *pose = after->second;
-    return true;
-  }
-  const auto before = std::prev(after);
-  const double s =
-      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
-  *pose = interpolateMotion(before->second, after->second, s);
-  return true;
 }
 
 void FrontendStage::onImage(const vslam::image_t& msg) {
@@ -177,15 +147,14 @@ void FrontendStage::onImage(const vslam::image_t& msg) {
 
 void FrontendStage::onProposal(const vslam::landmark_update_t& m) {
   const vslam::landmark_t& l = m.landmark;
-  if (m.op != vslam::landmark_update_t::OP_PROPOSED || l.camera == params_.camera.name) return;
+  if (m.op != vslam::landmark_update_t::OP_PROPOSED || l.camera == camera().name) return;
   const std::string why = checkLandmarkMessage(l);
   if (!why.empty()) {
     ctx_->bus.reportMalformed(params_.proposal_channel,
                               "landmark " + std::to_string(l.landmark_id) + " " + why);
     return;
   }
-  std::lock_guard<std::mutex> lock(index_mutex_);
-  index_.add(modelFromMessage(l, l.landmark_id));
+  frontend_.addLandmark(modelFromMessage(l, l.landmark_id));
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   ++stats_.foreign_landmarks;
 }
@@ -197,7 +166,7 @@ void FrontendStage::addToReplica(const vslam::landmark_t& l, const std::string& 
                                            (why.empty() ? "without a global id" : why));
     return;
   }
-  index_.add(modelFromMessage(l, l.landmark_id));
+  frontend_.addLandmark(modelFromMessage(l, l.landmark_id));
   replica_.insert(l.landmark_id);
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   ++stats_.replica_added;
@@ -209,7 +178,7 @@ void FrontendStage::adoptDatabase(const std::string& database_id) {
     log::warn("landmark database changed from ", database_id_, " to ", database_id, ": replica of ",
               replica_.size(), " landmarks dropped");
   }
-  for (int64_t id : replica_) index_.remove(id);
+  for (int64_t id : replica_) frontend_.removeLandmark(id);
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   stats_.replica_removed += static_cast<int64_t>(replica_.size());
   replica_.clear();
@@ -236,16 +205,16 @@ void FrontendStage::requestSync(int64_t since_revision, std::vector<int64_t> ids
 void FrontendStage::onUpdate(const vslam::landmark_update_t& m) {
   using U = vslam::landmark_update_t;
   const vslam::landmark_t& l = m.landmark;
-  std::lock_guard<std::mutex> lock(index_mutex_);
+  std::lock_guard<std::mutex> lock(replica_mutex_);
   if (m.database_id.empty()) {
     ctx_->bus.reportMalformed(params_.update_channel, "update without a database_id");
     return;
   }
   adoptDatabase(m.database_id);
   // The answer to one of this front-end's proposals.
-  const bool mine = l.camera == params_.camera.name && pending_.count(l.proposal_id) > 0;
+  const bool mine = l.camera == camera().name && pending_.count(l.proposal_id) > 0;
   if (mine && (m.op == U::OP_CREATED || m.op == U::OP_SNAPSHOT || m.op == U::OP_REJECTED)) {
-    index_.remove(pending_[l.proposal_id].index_id);
+    frontend_.removeLandmark(pending_[l.proposal_id].index_id);
     pending_.erase(l.proposal_id);
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++(m.op == U::OP_REJECTED ? stats_.rejected : stats_.acknowledged);
@@ -275,7 +244,7 @@ void FrontendStage::onUpdate(const vslam::landmark_update_t& m) {
     case U::OP_REMOVED:
     case U::OP_EVICTED:
       if (replica_.erase(l.landmark_id) > 0) {
-        index_.remove(l.landmark_id);
+        frontend_.removeLandmark(l.landmark_id);
         std::lock_guard<std::mutex> stats_lock(stats_mutex_);
         ++stats_.replica_removed;
       }
@@ -290,7 +259,7 @@ void FrontendStage::onSummary(const vslam::landmark_summary_t& s) {
     ctx_->bus.reportMalformed(params_.summary_channel, "summary without a database_id or sizes");
     return;
   }
-  std::lock_guard<std::mutex> lock(index_mutex_);
+  std::lock_guard<std::mutex> lock(replica_mutex_);
   adoptDatabase(s.database_id);
   // The summary lists what the DB holds in memory as of its revision; updates
   // published before it have arrived before it.
@@ -304,7 +273,7 @@ void FrontendStage::onSummary(const vslam::landmark_summary_t& s) {
   }
   for (int64_t id : extra) {
     replica_.erase(id);
-    index_.remove(id);
+    frontend_.removeLandmark(id);
   }
   if (!extra.empty()) {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
@@ -315,7 +284,7 @@ void FrontendStage::onSummary(const vslam::landmark_summary_t& s) {
 }
 
 void FrontendStage::resendPending() {
-  std::lock_guard<std::mutex> lock(index_mutex_);
+  std::lock_guard<std::mutex> lock(replica_mutex_);
   const Utime now = ctx_->clock.now();
   const Utime timeout = fromSeconds(params_.proposal_timeout_s);
   for (auto& [id, p] : pending_) {
@@ -332,14 +301,14 @@ void FrontendStage::prefetch(const std::string& channel, const void* data, size_
   // thread (one extractor, reused buffers). Features do not depend on the
   // thread that extracts them, so the replay's output does not either.
   // (The replay's look-ahead bounds how many are queued.)
-  if (channel != params_.camera.image_channel) return;
+  if (channel != camera().image_channel) return;
   auto msg = std::make_shared<vslam::image_t>();
   // Malformed: the bus's subscription reports it when the frame is delivered.
   if (!bus::checkedDecode(*msg, data, size, nullptr)) return;
   const std::pair<Utime, int64_t> frame{msg->utime, msg->seq};
   prefetched_.emplace_back(frame, prefetch_worker_.submit([this, msg] {
     PrefetchedFeatures out;
-    if (checkImage(params_.camera, *msg) || imageToGray(*msg, &prefetch_gray_)) {
+    if (checkImage(camera(), *msg) || imageToGray(*msg, &prefetch_gray_)) {
       return out;  // malformed: process() reports it
     }
     const Utime t0 = monotonicUtime();
@@ -364,59 +333,35 @@ void FrontendStage::process(vslam::image_t& msg) {
   }
   const bool have_features = prefetched && prefetched->ok;
   if (!have_features) {
-    auto error = checkImage(params_.camera, msg);
+    auto error = checkImage(camera(), msg);
     if (!error) error = imageToGray(msg, &gray_);
     if (error) {
-      ctx_->bus.reportMalformed(params_.camera.image_channel, *error);
+      ctx_->bus.reportMalformed(camera().image_channel, *error);
       return;
     }
   }
   if (params_.use_landmark_db) resendPending();
-  View view;
-  view.utime = msg.utime;
+  frontend::Features features;
   double sift_ms = 0;
   if (have_features) {
-    view.features = std::move(prefetched->features);
+    features = std::move(prefetched->features);
     sift_ms = prefetched->sift_ms;
   } else {
     const Utime t0 = monotonicUtime();
-    extractor_.extract(gray_, &view.features);
+    frontend_.extract(gray_, &features);
     sift_ms = msSince(t0);
   }
-  Utime t0 = 0;
+  const size_t num_features = features.size();
+  const bool gained = features.gain > 1.0;
 
-  t0 = monotonicUtime();
-  std::vector<frontend::Recognition> recognized;
-  {
-    std::lock_guard<std::mutex> lock(index_mutex_);
-    recognized = index_.recognize(view.features);
-  }
-  const double recognition_ms = msSince(t0);
-
-  t0 = monotonicUtime();
-  int measured = 0, failures = 0;
-  bool place_covered = false;
-  for (const auto& r : recognized) {
-    if (measured >= params_.max_measurements_per_frame) break;
-    const auto result = frontend::measurePose(r.points_robot, r.observations, measurement_camera_,
-                                              params_.measurement);
-    if (!result.ok()) {
-      ++failures;
-      continue;
-    }
-    const frontend::PoseMeasurement& pm = result.measurement;
-    const bool covers =
-        frontend::prefilter(pm, params_.prefilter) == frontend::MeasurementStatus::kAccepted;
-    place_covered = place_covered || covers;
-    // A landmark the DB has not acknowledged yet has no global id: it keeps
-    // the place from being proposed again, but is not measured.
-    if (r.landmark_id >= kPendingIdBase) continue;
+  const frontend::FrameResult result = frontend_.track(msg.utime, std::move(features));
+  for (const auto& [landmark_id, pm] : result.measurements) {
     vslam::visual_measurement_t out{};
     out.utime = msg.utime;
     out.seq = measurement_seq_++;
-    out.camera = params_.camera.name;
+    out.camera = camera().name;
     out.image_seq = msg.seq;
-    out.landmark_id = r.landmark_id;
+    out.landmark_id = landmark_id;
     out.dx = pm.relative.x;
     out.dy = pm.relative.y;
     out.dtheta = pm.relative.theta;
@@ -425,89 +370,48 @@ void FrontendStage::process(vslam::image_t& msg) {
     out.slope = pm.slope;
     out.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
     ctx_->bus.publish(params_.measurement_channel, out);
-    ++measured;
   }
-  const double measurement_ms = msSince(t0);
-
-  const bool have_pose = odometryAt(msg.utime, &view.odometry);
-  const size_t num_features = view.features.size();  // before the view is moved away
-  const bool gained = view.features.gain > 1.0;
-  t0 = monotonicUtime();
-  if (have_pose) considerCreation(std::move(view), place_covered);
-  const double creation_ms = msSince(t0);
+  if (result.created) propose(*result.created);
 
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.frames;
   stats_.features += static_cast<int64_t>(num_features);
-  stats_.recognitions += static_cast<int64_t>(recognized.size());
-  stats_.measurements += measured;
-  stats_.measurement_failures += failures;
-  stats_.no_odometry += have_pose ? 0 : 1;
+  stats_.recognitions += result.recognitions;
+  stats_.measurements += static_cast<int64_t>(result.measurements.size());
+  stats_.measurement_failures += result.measurement_failures;
+  stats_.no_odometry += result.have_odometry ? 0 : 1;
   stats_.prefetched += have_features ? 1 : 0;
   stats_.gained += gained ? 1 : 0;
+  stats_.created += result.created ? 1 : 0;
+  stats_.creation_failures += result.creation_failure ? 1 : 0;
   stats_.sift_ms += sift_ms;
-  stats_.recognition_ms += recognition_ms;
-  stats_.measurement_ms += measurement_ms;
-  stats_.creation_ms += creation_ms;
+  stats_.recognition_ms += result.recognition_ms;
+  stats_.measurement_ms += result.measurement_ms;
+  stats_.creation_ms += result.creation_ms;
 }
 
-void FrontendStage::considerCreation(View view, bool place_covered) {
-  // A place a known landmark already measures well needs no new one.
-  if (place_covered) {
-    views_.clear();
-    return;
-  }
-  while (!views_.empty() &&
-         toSeconds(view.utime - views_.front().utime) > params_.max_view_span_s) {
-    views_.pop_front();
-  }
-  if (!views_.empty()) {
-    const Pose2 d = views_.back().odometry.between(view.odometry);
-    if (std::hypot(d.x, d.y) < params_.creation_baseline_m) return;
-  }
-  views_.push_back(std::move(view));
-  if (views_.size() < 3) return;
-
-  const auto result = creator_.create(views_[0].features, views_[1].features, views_[2].features,
-                                      {views_[0].odometry, views_[1].odometry, views_[2].odometry});
-  if (!result.ok()) {
-    log::debug("no landmark from views at ", views_[0].utime, ": ", result.reason);
-    views_.pop_front();  // slide: the next view may make a better triple
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.creation_failures;
-    return;
-  }
+void FrontendStage::propose(const frontend::NewLandmark& created) {
   // With a DB: a proposal id unique to this run (the first frame's time plus
-  // a counter), in the index as kPendingIdBase + n until the DB names the global id.
-  if (proposal_base_ < 0) proposal_base_ = views_[0].utime;
+  // a counter), in the index as kFirstPendingId + n until the DB names the global id.
+  if (proposal_base_ < 0) proposal_base_ = created.first_view.utime;
   const int64_t id = params_.use_landmark_db
                          ? proposal_base_ + next_landmark_++
                          : params_.camera_number * kIdsPerCamera + next_landmark_++;
-  frontend::LandmarkModel model;
-  const int64_t index_id = params_.use_landmark_db ? kPendingIdBase + next_landmark_ : id;
-  model.id = index_id;
-  model.points_robot = result.landmark.points_robot;
-  model.descriptors.create(static_cast<int>(result.landmark.feature_index.size()), 128, CV_32F);
-  for (size_t i = 0; i < result.landmark.feature_index.size(); ++i) {
-    views_[0]
-        .features.descriptors.row(result.landmark.feature_index[i])
-        .copyTo(model.descriptors.row(static_cast<int>(i)));
-  }
-  vslam::landmark_update_t proposal = makeProposal(views_[0], result.landmark, id);
+  const int64_t index_id =
+      params_.use_landmark_db ? frontend::kFirstPendingId + next_landmark_ : id;
+  vslam::landmark_update_t proposal = makeProposal(created, id);
   {
-    std::lock_guard<std::mutex> lock(index_mutex_);
-    index_.add(std::move(model));
+    std::lock_guard<std::mutex> lock(replica_mutex_);
+    frontend_.addLandmark(created.model(index_id));
     if (params_.use_landmark_db) pending_[id] = {proposal, ctx_->clock.now(), index_id};
   }
   ctx_->bus.publish(params_.proposal_channel, proposal);
-  views_.clear();
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++stats_.created;
 }
 
-vslam::landmark_update_t FrontendStage::makeProposal(const View& v1,
-                                                     const frontend::CreatedLandmark& lm,
+vslam::landmark_update_t FrontendStage::makeProposal(const frontend::NewLandmark& created,
                                                      int64_t id) const {
+  const frontend::View& v1 = created.first_view;
+  const frontend::CreatedLandmark& lm = created.landmark;
   vslam::landmark_update_t m{};
   m.utime = v1.utime;
   m.database_id = "";
@@ -517,7 +421,7 @@ vslam::landmark_update_t FrontendStage::makeProposal(const View& v1,
   l.landmark_id = params_.use_landmark_db ? -1 : id;
   l.proposal_id = id;
   l.version = 0;
-  l.camera = params_.camera.name;
+  l.camera = camera().name;
   l.created_utime = v1.utime;
   l.created_odom_x = v1.odometry.x;
   l.created_odom_y = v1.odometry.y;
@@ -582,8 +486,8 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   report.add("measurement_ms", d.measurement_ms / frames, "ms");
   report.add("creation_ms", d.creation_ms / frames, "ms");
   {
-    std::lock_guard<std::mutex> index_lock(index_mutex_);
-    report.add("landmarks_known", static_cast<double>(index_.size()), "count");
+    report.add("landmarks_known", static_cast<double>(frontend_.numLandmarks()), "count");
+    std::lock_guard<std::mutex> replica_lock(replica_mutex_);
     if (params_.use_landmark_db) {
       report.add("landmarks_pending", static_cast<double>(pending_.size()), "count");
       report.add("replica_landmarks", static_cast<double>(replica_.size()), "count");
@@ -608,7 +512,7 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
 void registerFrontend(bus::StageRegistry& registry) {
   registry.add("frontend", [](const bus::StageSetup& setup) {
     return std::make_unique<FrontendStage>(
-        FrontendParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
+        FrontendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
   });
 }
 

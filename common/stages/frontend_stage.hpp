@@ -1,6 +1,9 @@
 #pragma once
 // vslam-frontend: the vSLAM visual front-end (paper section 4) for one
-// camera, over the algorithms of common/frontend.
+// camera: the LCM adapter of frontend::Frontend (common/frontend/frontend.hpp,
+// which holds the tracking and the creation window). This stage decodes
+// frames and odometry, publishes what each frame gives, and keeps the
+// recognition index a replica of the landmark DB (the protocol below).
 //
 // Every frame (newest wins; stale frames are dropped, counted in health):
 // SIFT features -> recognition of known landmarks (of every camera) -> a
@@ -41,34 +44,24 @@
 #include "bus/serial_worker.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
-#include "frontend/landmark_creation.hpp"
-#include "frontend/landmark_index.hpp"
-#include "frontend/pose_measurement.hpp"
+#include "frontend/frontend.hpp"
 
 namespace vslam::stages {
 
-struct FrontendParams {
-  config::CameraConfig camera;
-  int camera_number = 1;  // 1-based index of the camera in the robot file
+struct FrontendStageParams {
+  frontend::FrontendParams frontend;  // the algorithm (camera, window, SIFT, creation, ...)
+  int camera_number = 1;              // 1-based index of the camera in the robot file
   std::string odometry_channel;
   std::string measurement_channel;
   std::string proposal_channel;
   std::string update_channel, summary_channel, request_channel;
-  bool use_landmark_db = true;         // landmark_db: required (true) | none
-  double proposal_timeout_s = 2.0;     // unanswered proposals are sent again after this
-  double creation_baseline_m = 0.20;   // odometry travel between the three views
-  double max_view_span_s = 20.0;       // views older than this are dropped
-  int max_measurements_per_frame = 4;  // recognized landmarks measured per frame, best first
-  frontend::SiftParams sift;
-  frontend::CreationParams creation;
-  frontend::RecognitionParams recognition;
-  frontend::PoseMeasurementParams measurement;
-  frontend::PrefilterParams
-      prefilter;  // the stack's; here to decide whether a place needs a landmark
+  bool use_landmark_db = true;      // landmark_db: required (true) | none
+  double proposal_timeout_s = 2.0;  // unanswered proposals are sent again after this
 
-  // `prefilter`: the stack's (loadPrefilter in stages/prefilter_config.hpp).
-  static FrontendParams load(const config::ConfigNode& node, const config::RobotConfig& robot,
-                             const frontend::PrefilterParams& prefilter);
+  // The pre-filter is the stack's (loadPrefilter in stages/prefilter_config.hpp):
+  // here to decide whether a place needs a landmark.
+  static FrontendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot,
+                                  const frontend::PrefilterParams& prefilter);
 };
 
 // Why a landmark from another front-end or the DB may not enter this
@@ -78,7 +71,7 @@ std::string checkLandmarkMessage(const vslam::landmark_t& l);
 
 class FrontendStage final : public bus::Stage {
  public:
-  explicit FrontendStage(FrontendParams params);
+  explicit FrontendStage(FrontendStageParams params);
   ~FrontendStage() override;
   void start(bus::StageContext& ctx) override;
   void drain() override;
@@ -91,11 +84,6 @@ class FrontendStage final : public bus::Stage {
   }
 
  private:
-  struct View {
-    Utime utime = 0;
-    Pose2 odometry;
-    frontend::Features features;
-  };
   struct Stats {
     int64_t frames = 0, features = 0, recognitions = 0, measurements = 0, measurement_failures = 0;
     int64_t created = 0, creation_failures = 0, foreign_landmarks = 0, no_odometry = 0;
@@ -112,27 +100,20 @@ class FrontendStage final : public bus::Stage {
   // Landmark DB replica (landmark_db: required).
   void onUpdate(const vslam::landmark_update_t& msg);
   void onSummary(const vslam::landmark_summary_t& msg);
-  void adoptDatabase(const std::string& database_id);                         // index_mutex_ held
-  void requestSync(int64_t since_revision, std::vector<int64_t> ids);         // index_mutex_ held
-  void addToReplica(const vslam::landmark_t& l, const std::string& channel);  // index_mutex_ held
+  void adoptDatabase(const std::string& database_id);                         // replica_mutex_ held
+  void requestSync(int64_t since_revision, std::vector<int64_t> ids);         // replica_mutex_ held
+  void addToReplica(const vslam::landmark_t& l, const std::string& channel);  // replica_mutex_ held
   void resendPending();
   void process(vslam::image_t& msg);
-  bool odometryAt(Utime t, Pose2* pose);
-  void considerCreation(View view, bool place_covered);
-  vslam::landmark_update_t makeProposal(const View& view1, const frontend::CreatedLandmark& lm,
-                                        int64_t id) const;
+  void propose(const frontend::NewLandmark& created);
+  vslam::landmark_update_t makeProposal(const frontend::NewLandmark& created, int64_t id) const;
 
-  FrontendParams params_;
+  const config::CameraConfig& camera() const { return params_.frontend.camera; }
+
+  FrontendStageParams params_;
   bus::StageContext* ctx_ = nullptr;
   std::unique_ptr<bus::LatestWinsWorker<vslam::image_t>> worker_;
-  frontend::FeatureExtractor extractor_;
-  frontend::LandmarkCreator creator_;
-  frontend::MeasurementCamera measurement_camera_;
-  std::mutex index_mutex_;  // proposals of other front-ends arrive on the LCM thread
-  frontend::LandmarkIndex index_;
-  std::mutex odometry_mutex_;
-  std::deque<std::pair<Utime, Pose2>> odometry_;  // recent cumulative poses
-  std::deque<View> views_;
+  frontend::Frontend frontend_;
   cv::Mat gray_;
   // Lock-step replay: SIFT of the coming frames of this camera, extracted in
   // order on another thread while the events before them are handled
@@ -148,7 +129,9 @@ class FrontendStage final : public bus::Stage {
   std::deque<std::pair<std::pair<Utime, int64_t>, std::future<PrefetchedFeatures>>>
       prefetched_;  // (utime, seq) of the frame, its features; in delivery order
   int64_t next_landmark_ = 1;
-  // Replica state (under index_mutex_).
+  // Replica state. Proposals and updates arrive on the LCM thread, frames on
+  // the worker: replica_mutex_ keeps this state and the index's landmarks in step.
+  std::mutex replica_mutex_;
   struct Pending {
     vslam::landmark_update_t proposal;
     Utime sent = 0;

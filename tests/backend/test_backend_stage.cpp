@@ -434,9 +434,9 @@ TEST(StackPrefilter, OneBlockReachesTheBackEndAndEveryFrontEnd) {
     EXPECT_EQ(back.backend.prefilter.min_num_points, 14);
     EXPECT_EQ(back.backend.prefilter.max_slope, 0.25);
     const auto front =
-        stages::FrontendParams::load(stack.process("frontend_forward"), stack.robot, pf);
-    EXPECT_EQ(front.prefilter.min_num_points, 14);
-    EXPECT_EQ(front.prefilter.max_proj_err_rms_px, 2.5);
+        stages::FrontendStageParams::load(stack.process("frontend_forward"), stack.robot, pf);
+    EXPECT_EQ(front.frontend.prefilter.min_num_points, 14);
+    EXPECT_EQ(front.frontend.prefilter.max_proj_err_rms_px, 2.5);
   }
   {  // absent: the paper's region
     const auto pf = stages::loadPrefilter(load("", ""));

@@ -1,0 +1,157 @@
+#include "frontend/frontend.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "util/log.hpp"
+
+namespace vslam::frontend {
+namespace {
+
+constexpr size_t kOdometryHistory = 500;  // readings kept: 10 s at 50 Hz
+
+double msSince(Utime start) { return 1e-3 * static_cast<double>(monotonicUtime() - start); }
+
+}  // namespace
+
+LandmarkModel NewLandmark::model(int64_t id) const {
+  LandmarkModel model;
+  model.id = id;
+  model.points_robot = landmark.points_robot;
+  model.descriptors.create(static_cast<int>(landmark.feature_index.size()), 128, CV_32F);
+  for (size_t i = 0; i < landmark.feature_index.size(); ++i) {
+    first_view.features.descriptors.row(landmark.feature_index[i])
+        .copyTo(model.descriptors.row(static_cast<int>(i)));
+  }
+  return model;
+}
+
+Frontend::Frontend(FrontendParams params)
+    : params_(std::move(params)),
+      extractor_(params_.camera, params_.sift),
+      creator_(params_.camera, params_.creation),
+      measurement_camera_(MeasurementCamera::fromConfig(params_.camera)),
+      index_(params_.recognition) {}
+
+Frontend::OdometryVerdict Frontend::addOdometry(Utime t, const Pose2& pose) {
+  if (!pose.isFinite()) return OdometryVerdict::kNotFinite;
+  std::lock_guard<std::mutex> lock(odometry_mutex_);
+  if (!odometry_.empty() && t <= odometry_.back().first) return OdometryVerdict::kNotNewer;
+  odometry_.emplace_back(t, pose);
+  while (odometry_.size() > kOdometryHistory) odometry_.pop_front();
+  return OdometryVerdict::kAdded;
+}
+
+bool Frontend::odometryAt(Utime t, Pose2* pose) const {
+  std::lock_guard<std::mutex> lock(odometry_mutex_);
+  if (odometry_.empty()) return false;
+  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), t,
+                                      [](const auto& a, Utime v) { return a.first < v; });
+  if (after == odometry_.end()) {
+    if (t - odometry_.back().first > params_.max_odometry_gap) return false;
+    *pose = odometry_.back().second;
+    return true;
+  }
+  if (after == odometry_.begin() || after->first == t) {
+    if (after->first - t > params_.max_odometry_gap) return false;
+    *pose = after->second;
+    return true;
+  }
+  const auto before = std::prev(after);
+  const double s =
+      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
+  *pose = interpolateMotion(before->second, after->second, s);
+  return true;
+}
+
+void Frontend::extract(const cv::Mat& gray, Features* out) { extractor_.extract(gray, out); }
+
+FrameResult Frontend::track(Utime t, Features features) {
+  FrameResult result;
+  Utime t0 = monotonicUtime();
+  std::vector<Recognition> recognized;
+  {
+    std::lock_guard<std::mutex> lock(index_mutex_);
+    recognized = index_.recognize(features);
+  }
+  result.recognitions = static_cast<int>(recognized.size());
+  result.recognition_ms = msSince(t0);
+
+  t0 = monotonicUtime();
+  int measured = 0;
+  for (const auto& r : recognized) {
+    if (measured >= params_.max_measurements_per_frame) break;
+    const auto pose =
+        measurePose(r.points_robot, r.observations, measurement_camera_, params_.measurement);
+    if (!pose.ok()) {
+      ++result.measurement_failures;
+      continue;
+    }
+    const PoseMeasurement& pm = pose.measurement;
+    const bool near_creation =
+        params_.coverage_radius_m <= 0 ||
+        std::hypot(pm.relative.x, pm.relative.y) <= params_.coverage_radius_m;
+    result.place_covered =
+        result.place_covered ||
+        (near_creation && prefilter(pm, params_.prefilter) == MeasurementStatus::kAccepted);
+    if (r.landmark_id >= kFirstPendingId) continue;
+    result.measurements.push_back({r.landmark_id, pm});
+    ++measured;
+  }
+  result.measurement_ms = msSince(t0);
+
+  View view;
+  view.utime = t;
+  view.features = std::move(features);
+  result.have_odometry = odometryAt(t, &view.odometry);
+  t0 = monotonicUtime();
+  if (result.have_odometry) considerCreation(std::move(view), &result);
+  result.creation_ms = msSince(t0);
+  return result;
+}
+
+void Frontend::considerCreation(View view, FrameResult* result) {
+  // A place a known landmark already measures well needs no new one.
+  if (result->place_covered) {
+    views_.clear();
+    return;
+  }
+  while (!views_.empty() &&
+         toSeconds(view.utime - views_.front().utime) > params_.max_view_span_s) {
+    views_.pop_front();
+  }
+  if (!views_.empty()) {
+    const Pose2 d = views_.back().odometry.between(view.odometry);
+    if (std::hypot(d.x, d.y) < params_.creation_baseline_m) return;
+  }
+  views_.push_back(std::move(view));
+  if (views_.size() < 3) return;
+
+  auto made = creator_.create(views_[0].features, views_[1].features, views_[2].features,
+                              {views_[0].odometry, views_[1].odometry, views_[2].odometry});
+  if (!made.ok()) {
+    log::debug("no landmark from views at ", views_[0].utime, ": ", made.reason);
+    result->creation_failure = made.reason;
+    views_.pop_front();  // slide: the next view may make a better triple
+    return;
+  }
+  result->created = NewLandmark{std::move(views_[0]), std::move(made.landmark)};
+  views_.clear();
+}
+
+void Frontend::addLandmark(LandmarkModel model) {
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  index_.add(std::move(model));
+}
+
+void Frontend::removeLandmark(int64_t id) {
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  index_.remove(id);
+}
+
+size_t Frontend::numLandmarks() const {
+  std::lock_guard<std::mutex> lock(index_mutex_);
+  return index_.size();
+}
+
+}  // namespace vslam::frontend
