@@ -2,9 +2,11 @@
 
 #include "stages/appearance_stage.hpp"
 #include "stages/backend_stage.hpp"
+#include "stages/camera_stage.hpp"
 #include "stages/deadreckon_stage.hpp"
 #include "stages/frontend_stage.hpp"
 #include "stages/landmark_db_stage.hpp"
+#include "stages/odometry_bridge_stage.hpp"
 
 namespace vslam::stages {
 
@@ -16,6 +18,16 @@ const bus::StageRegistry& builtinStages() {
     registerBackend(r);
     registerAppearance(r);
     registerLandmarkDb(r);
+    return r;
+  }();
+  return registry;
+}
+
+const bus::StageRegistry& driverStages() {
+  static const bus::StageRegistry registry = [] {
+    bus::StageRegistry r;
+    registerOdometryBridge(r);
+    registerCamera(r);
     return r;
   }();
   return registry;

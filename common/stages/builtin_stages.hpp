@@ -7,4 +7,9 @@ namespace vslam::stages {
 // Each issue that adds a stage registers it in builtin_stages.cpp.
 const bus::StageRegistry& builtinStages();
 
+// Sensor drivers run as stages (their process mains use runStageProcess), but
+// apart from builtinStages(): vslam-replay, where the log holds the sensor
+// data, never starts them, even if their instances are in the config.
+const bus::StageRegistry& driverStages();
+
 }  // namespace vslam::stages
