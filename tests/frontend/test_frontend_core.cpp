@@ -22,13 +22,6 @@ const fs::path kSource = VSLAM_SOURCE_DIR;
 constexpr double kDeg = M_PI / 180.0;
 constexpr Utime kStep = 100000;  // 10 Hz frames, 2 cm apart (0.2 m/s)
 
-Eigen::Isometry3d isometryOf(const Pose2& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(p.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  t.translation() = Eigen::Vector3d(p.x, p.y, 0.0);
-  return t;
-}
-
 // The world, its renderer and each frame's features are shared by the tests
 // (rendering and SIFT are what they cost).
 class FrontendCore : public ::testing::Test {
@@ -67,7 +60,7 @@ class FrontendCore : public ::testing::Test {
     auto cached = frames_.find(k);
     if (cached == frames_.end()) {
       cv::Mat image;
-      renderer_->render(isometryOf(poseAt(k)) * params_.camera.robot_T_camera, {}, {}, false,
+      renderer_->render(isometryFromPose2(poseAt(k)) * params_.camera.robot_T_camera, {}, {}, false,
                         image);
       Features features;
       frontend.extract(image, &features);

@@ -34,13 +34,6 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kMaxXyError = 0.05;             // metres
 constexpr double kMaxHeadingError = 1.0 * kDeg;  // radians
 
-Eigen::Isometry3d isometryOf(const Pose2& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(p.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  t.translation() = Eigen::Vector3d(p.x, p.y, 0.0);
-  return t;
-}
-
 class RenderedMeasurement : public ::testing::Test {
  protected:
   RenderedMeasurement()
@@ -57,7 +50,7 @@ class RenderedMeasurement : public ::testing::Test {
     effects.exposure = exposure;
     effects.noise_sigma = noise_sigma;
     cv::Mat image;
-    renderer.render(isometryOf(robot) * cam.robot_T_camera, {}, effects, false, image);
+    renderer.render(isometryFromPose2(robot) * cam.robot_T_camera, {}, effects, false, image);
     return image;
   }
 

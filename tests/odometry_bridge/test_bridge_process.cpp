@@ -161,39 +161,34 @@ TEST_F(BridgeProcess, PoseLinesOverAPtyArriveAsOdometry) {
   EXPECT_NE(out.find("rejected: time not after the last accepted line"), std::string::npos) << out;
 }
 
-TEST(BridgeConfig, ADeviceThatCannotBeOpenedExitsTwoNamingTheKey) {
+// The bridge with `block` as its config exits 2 and its log names `key` and
+// every string of `also`.
+void expectRefused(const std::string& block, const std::string& key,
+                   const std::vector<std::string>& also = {}) {
   tt::TempDir dir;
-  const std::string config =
-      writeConfig(dir,
-                  "    source: serial\n    serial_device: /dev/does-not-exist-ttyUSB9\n"
-                  "    format: pose\n");
+  const std::string config = writeConfig(dir, block);
   const std::string log = dir.path() + "/bridge.log";
   tt::Child bridge = tt::Child::spawn({std::string(VSLAM_BIN_DIR) + "/vslam-odometry-bridge",
                                        "--config", config, "--lcm-url", "memq://"},
                                       {}, log);
   const auto status = bridge.waitFor(10.0);
   ASSERT_TRUE(status.has_value());
-  EXPECT_TRUE(tt::exitedWith(status, 2)) << tt::describeStatus(*status) << "\n" << readFile(log);
   const std::string out = readFile(log);
-  EXPECT_NE(out.find("processes.odometry_bridge.serial_device"), std::string::npos) << out;
-  EXPECT_NE(out.find("/dev/does-not-exist-ttyUSB9"), std::string::npos) << out;
+  EXPECT_TRUE(tt::exitedWith(status, 2)) << tt::describeStatus(*status) << "\n" << out;
+  EXPECT_NE(out.find("processes.odometry_bridge." + key), std::string::npos) << out;
+  for (const auto& s : also) EXPECT_NE(out.find(s), std::string::npos) << out;
+}
+
+TEST(BridgeConfig, ADeviceThatCannotBeOpenedExitsTwoNamingTheKey) {
+  expectRefused(
+      "    source: serial\n    serial_device: /dev/does-not-exist-ttyUSB9\n    format: pose\n",
+      "serial_device", {"/dev/does-not-exist-ttyUSB9"});
 }
 
 TEST(BridgeConfig, TicksWithoutTheWheelGeometryExitTwoNamingTheKey) {
-  tt::TempDir dir;
-  const std::string config =
-      writeConfig(dir,
-                  "    source: stdin\n    format: ticks\n    ticks_per_rev: 1024\n"
-                  "    wheel_radius_m: 0.035\n");
-  const std::string log = dir.path() + "/bridge.log";
-  tt::Child bridge = tt::Child::spawn({std::string(VSLAM_BIN_DIR) + "/vslam-odometry-bridge",
-                                       "--config", config, "--lcm-url", "memq://"},
-                                      {}, log);
-  const auto status = bridge.waitFor(10.0);
-  ASSERT_TRUE(status.has_value());
-  EXPECT_TRUE(tt::exitedWith(status, 2)) << tt::describeStatus(*status);
-  EXPECT_NE(readFile(log).find("processes.odometry_bridge.track_width_m"), std::string::npos)
-      << readFile(log);
+  expectRefused(
+      "    source: stdin\n    format: ticks\n    ticks_per_rev: 1024\n    wheel_radius_m: 0.035\n",
+      "track_width_m");
 }
 
 }  // namespace
