@@ -2,12 +2,14 @@
 #
 # Debian's LCM 1.3.1 ships no CMake helper (no lcm_wrap_types), so this file
 # runs lcm-gen itself: C++ headers into the build tree (never the source tree)
-# behind an INTERFACE target, and a Java jar of the same types for lcm-spy.
+# behind an INTERFACE target, and a Java jar of the same types for lcm-spy,
+# with hand-written Java (JAVA_SOURCES: lcm-spy plugins, which lcm-spy loads
+# from its classpath) compiled into the same jar.
 # Beside the types it generates <TARGET>/wire_check.hpp (cmake/lcm_wire_check.py):
 # a check of an encoded message's counts against its bytes, run before the
 # generated decoder, which allocates whatever count a message claims.
 #
-#   vslam_lcm_types(TARGET name JAR_TARGET name FILES a.lcm b.lcm ...)
+#   vslam_lcm_types(TARGET name JAR_TARGET name FILES a.lcm b.lcm ... [JAVA_SOURCES x.java ...])
 
 find_program(LCM_GEN_EXECUTABLE lcm-gen REQUIRED)
 # The system interpreter (scripts/setup installs it; the scripts run it), not
@@ -19,7 +21,7 @@ find_package(Java 11 COMPONENTS Development REQUIRED)
 find_file(LCM_JAR lcm.jar PATHS /usr/share/java REQUIRED)
 
 function(vslam_lcm_types)
-  cmake_parse_arguments(ARG "" "TARGET;JAR_TARGET" "FILES" ${ARGN})
+  cmake_parse_arguments(ARG "" "TARGET;JAR_TARGET" "FILES;JAVA_SOURCES" ${ARGN})
   set(cpp_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/cpp)
   set(java_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/java)
   set(class_root ${CMAKE_CURRENT_BINARY_DIR}/lcmtypes/classes)
@@ -65,15 +67,16 @@ function(vslam_lcm_types)
   add_dependencies(${ARG_TARGET} ${ARG_TARGET}_generate)
   target_include_directories(${ARG_TARGET} SYSTEM INTERFACE ${cpp_root})
 
-  # Java: compile every generated class into one jar for lcm-spy.
+  # Java: compile every generated class, and the plugins that use them, into
+  # one jar for lcm-spy.
   set(jar ${CMAKE_BINARY_DIR}/share/java/${ARG_JAR_TARGET}.jar)
   add_custom_command(
     OUTPUT ${jar}
     COMMAND ${CMAKE_COMMAND} -E rm -rf ${class_root}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${class_root} ${CMAKE_BINARY_DIR}/share/java
-    COMMAND ${Java_JAVAC_EXECUTABLE} -nowarn -source 11 -target 11 -cp ${LCM_JAR} -d ${class_root} ${java_sources}
+    COMMAND ${Java_JAVAC_EXECUTABLE} -nowarn -source 11 -target 11 -cp ${LCM_JAR} -d ${class_root} ${java_sources} ${ARG_JAVA_SOURCES}
     COMMAND ${Java_JAR_EXECUTABLE} cf ${jar} -C ${class_root} .
-    DEPENDS ${java_sources}
+    DEPENDS ${java_sources} ${ARG_JAVA_SOURCES}
     COMMENT "javac + jar ${ARG_JAR_TARGET}.jar"
     VERBATIM)
   add_custom_target(${ARG_JAR_TARGET} ALL DEPENDS ${jar})
