@@ -1,5 +1,6 @@
 #include "config/stack_config.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 
 #include "util/log.hpp"
@@ -45,6 +46,22 @@ std::vector<std::string> StackConfig::instances() const { return root.child("pro
 
 std::string StackConfig::roleOf(const std::string& instance) const {
   return process(instance).getString("role");
+}
+
+std::vector<std::string> StackConfig::absentCameras(const std::string& instance) const {
+  const ConfigNode block = process(instance);
+  std::vector<std::string> named;
+  if (block.has("camera")) named.push_back(block.getString("camera"));
+  if (block.has("cameras")) {
+    for (const auto& name : block.getStrings("cameras")) named.push_back(name);
+  }
+  std::vector<std::string> absent;
+  for (const auto& name : named) {
+    const bool known = std::any_of(robot.cameras.begin(), robot.cameras.end(),
+                                   [&](const CameraConfig& c) { return c.name == name; });
+    if (!known) absent.push_back(name);
+  }
+  return absent;
 }
 
 std::string resolveLcmUrl(const std::string& command_line, const std::string& config_url) {

@@ -32,6 +32,10 @@ struct StackConfig {
   std::vector<std::string> instances() const;
   // The `role` of an instance (marks the key as read).
   std::string roleOf(const std::string& instance) const;
+  // The cameras an instance's block names (its `camera:` or `cameras:`) that
+  // the robot file does not have: such an instance cannot run with this
+  // robot (a two-camera config with a one-camera robot file).
+  std::vector<std::string> absentCameras(const std::string& instance) const;
 };
 
 // Precedence: command line, then LCM_DEFAULT_URL, then the config file, then

@@ -1,7 +1,12 @@
 #include "eval/import_cli.hpp"
 
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <optional>
 #include <ostream>
 
+#include "config/stack_config.hpp"
 #include "eval/cli_args.hpp"
 #include "eval/errors.hpp"
 #include "eval/tum_import.hpp"
@@ -9,8 +14,17 @@
 namespace vslam::eval {
 namespace {
 
-ImportOptions parseImportArgs(const std::vector<std::string>& args) {
-  ImportOptions o;
+namespace fs = std::filesystem;
+
+struct ImportArgs {
+  ImportOptions options;
+  std::optional<fs::path> config;  // --config
+  bool image_channel_given = false, calibration_channel_given = false;
+};
+
+ImportArgs parseImportArgs(const std::vector<std::string>& args) {
+  ImportArgs a;
+  ImportOptions& o = a.options;
   bool have_dir = false, have_calib = false, have_out = false;
   cli::ArgCursor cur(args);
   while (!cur.done()) {
@@ -30,10 +44,14 @@ ImportOptions parseImportArgs(const std::vector<std::string>& args) {
     } else if (opt == "--camera") {
       o.camera = cur.value(opt);
       if (o.camera.empty()) throw UsageError("--camera must not be empty");
+    } else if (opt == "--config") {
+      a.config = cur.value(opt);
     } else if (opt == "--image-channel") {
       o.image_channel = cur.value(opt);
+      a.image_channel_given = true;
     } else if (opt == "--calibration-channel") {
       o.calibration_channel = cur.value(opt);
+      a.calibration_channel_given = true;
     } else if (opt == "--gt-channel") {
       o.ground_truth_channel = cur.value(opt);
     } else if (opt == "--odometry-channel") {
@@ -86,7 +104,39 @@ ImportOptions parseImportArgs(const std::vector<std::string>& args) {
         "config/calib/sim_320x240.yml; the front-ends need it)");
   }
   if (!have_out) throw UsageError("--out LOG is required");
-  return o;
+  return a;
+}
+
+// The stack config the log is for: --config, else $VSLAM_CONFIG, else
+// config/vslam.yaml when it exists here (the processes' default). Its robot
+// file's camera sets the size the images must have and the default channels.
+void applyRobotFile(const ImportArgs& a, ImportOptions* o, std::ostream& err) {
+  fs::path file;
+  if (a.config) {
+    file = *a.config;
+  } else if (const char* env = std::getenv("VSLAM_CONFIG"); env && *env) {
+    file = env;
+  } else if (std::error_code ec; fs::is_regular_file("config/vslam.yaml", ec)) {
+    file = "config/vslam.yaml";
+  } else {
+    err << "vslam-import: note: no stack config (--config, $VSLAM_CONFIG or ./config/vslam.yaml):"
+           " the image size is not checked against a robot file\n";
+    return;
+  }
+  const config::StackConfig stack = config::StackConfig::loadFile(file);
+  const config::RobotConfig& robot = stack.robot;
+  const auto it = std::find_if(robot.cameras.begin(), robot.cameras.end(),
+                               [&](const config::CameraConfig& c) { return c.name == o->camera; });
+  if (it == robot.cameras.end()) {
+    std::string names;
+    for (const auto& c : robot.cameras) names += (names.empty() ? "" : ", ") + c.name;
+    throw UsageError("--camera " + o->camera + ": no such camera in " + robot.file.string() +
+                     " (robot file of " + file.string() + "; cameras: " + names + ")");
+  }
+  o->robot_camera = *it;
+  o->robot_file = robot.file;
+  if (!a.image_channel_given) o->image_channel = it->image_channel;
+  if (!a.calibration_channel_given) o->calibration_channel = it->calibration_channel;
 }
 
 }  // namespace
@@ -106,9 +156,13 @@ void printImportUsage(std::ostream& os) {
         "  --groundtruth FILE        TUM trajectory (default DIR/groundtruth.txt)\n"
         "  --odometry FILE           TUM trajectory of the robot base (x forward, z up) in the\n"
         "                            odometry frame, written as vslam.odometry_t\n"
+        "  --config FILE             stack config the log is for (default $VSLAM_CONFIG, else\n"
+        "                            ./config/vslam.yaml if present): the written image size\n"
+        "                            must be its robot file's for the camera, and the channels\n"
+        "                            default to that camera's\n"
         "  --camera NAME             camera name (default forward)\n"
-        "  --image-channel CH        default CAM_<NAME>_IMAGE\n"
-        "  --calibration-channel CH  default CAM_<NAME>_CALIBRATION\n"
+        "  --image-channel CH        default the robot file's, else CAM_<NAME>_IMAGE\n"
+        "  --calibration-channel CH  default the robot file's, else CAM_<NAME>_CALIBRATION\n"
         "  --gt-channel CH           default GROUND_TRUTH\n"
         "  --odometry-channel CH     default ODOMETRY\n"
         "  --encoding gray8|bgr8|jpeg  image encoding (default gray8)\n"
@@ -124,7 +178,8 @@ void printImportUsage(std::ostream& os) {
         "                            robot's +x, as in the robot file (default 0,0,0)\n"
         "\n"
         "Exit codes: 0 ok, 1 data problem (missing or malformed file, unreadable image,\n"
-        "inconsistent image sizes), 2 bad command line. See docs/evaluation.md.\n";
+        "inconsistent image sizes, images of another size than the robot file's), 2 bad\n"
+        "command line or stack config. See docs/evaluation.md.\n";
 }
 
 int runImportCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -135,7 +190,9 @@ int runImportCli(const std::vector<std::string>& args, std::ostream& out, std::o
     }
   }
   try {
-    const ImportOptions o = parseImportArgs(args);
+    const ImportArgs a = parseImportArgs(args);
+    ImportOptions o = a.options;
+    applyRobotFile(a, &o, err);
     const ImportStats s = importTumDataset(o);
     out << "wrote " << o.output.string() << ": " << s.images << " images (" << toString(o.encoding)
         << ", " << s.image_size.width << "x" << s.image_size.height << ") on " << s.image_channel
@@ -147,6 +204,9 @@ int runImportCli(const std::vector<std::string>& args, std::ostream& out, std::o
     return kExitOk;
   } catch (const UsageError& e) {
     err << "vslam-import: " << e.what() << " (see --help)\n";
+    return kExitUsage;
+  } catch (const config::ConfigError& e) {
+    err << "vslam-import: bad configuration: " << e.what() << "\n";
     return kExitUsage;
   } catch (const DataError& e) {
     err << "vslam-import: error: " << e.what() << "\n";

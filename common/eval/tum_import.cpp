@@ -194,11 +194,24 @@ ImportStats importTumDataset(const ImportOptions& o) {
   const config::CameraIntrinsics calib = readCalibration(o.calibration);
   const cv::Size calib_size(calib.width, calib.height);
 
-  // Sizes: the first image sets the source size; the calibration must refer
-  // to the written size or to the source size (then it is rescaled).
+  // Sizes: the first image sets the source size; the written size must be
+  // the robot camera's, and the calibration must refer to the written size or
+  // to the source size (then it is rescaled).
   const cv::Mat first = loadImage(image_dir, list_file, images.front());
   stats.source_size = first.size();
   stats.image_size = o.resize.value_or(stats.source_size);
+  if (o.robot_camera) {
+    const cv::Size robot_size(o.robot_camera->width, o.robot_camera->height);
+    if (robot_size != stats.image_size) {
+      throw DataError("the images are " + sizeText(stats.source_size) +
+                      (o.resize ? " resized to " + sizeText(*o.resize) : std::string()) +
+                      ", but camera '" + o.robot_camera->name + "' in " + o.robot_file.string() +
+                      " is " + sizeText(robot_size) +
+                      " (its front-end would drop every frame); use --resize " +
+                      sizeText(robot_size) + " (the intrinsics are rescaled) or a --config " +
+                      "whose robot file is for " + sizeText(stats.image_size));
+    }
+  }
   config::CameraIntrinsics out_calib = calib;
   if (calib_size != stats.image_size) {
     if (calib_size != stats.source_size) {
@@ -216,7 +229,6 @@ ImportStats importTumDataset(const ImportOptions& o) {
     out_calib.width = stats.image_size.width;
     out_calib.height = stats.image_size.height;
   }
-
   if (o.frame_rate_hz > 0) {
     stats.frame_rate_hz = o.frame_rate_hz;
   } else if (images.size() > 1) {

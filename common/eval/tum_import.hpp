@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "config/robot_config.hpp"
 #include "eval/planar.hpp"
 
 namespace vslam::eval {
@@ -50,6 +51,12 @@ struct ImportOptions {
   // the robot file (degrees; 0,0,0 = level, looking along the robot's +x).
   Eigen::Vector3d camera_position_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d camera_yaw_pitch_roll_deg = Eigen::Vector3d::Zero();
+
+  // The camera of the robot file the log is for: the written image size
+  // must be its size (front-ends drop frames of another size), else
+  // DataError naming both. Unset: no check.
+  std::optional<config::CameraConfig> robot_camera;
+  std::filesystem::path robot_file;  // where robot_camera comes from, for messages
 };
 
 struct ImportStats {

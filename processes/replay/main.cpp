@@ -18,7 +18,7 @@ void usage() {
          "  --config FILE        stack configuration (default $VSLAM_CONFIG, else "
          "config/vslam.yaml)\n"
          "  --stages A,B,...     process instances to run (default: every instance whose role\n"
-         "                       is a stage: "
+         "                       is a stage, but those whose camera the robot file lacks: "
       <<
       [] {
         std::string s;
@@ -114,8 +114,17 @@ int main(int argc, char** argv) {
     if (stages_given) {
       instances = split(stages_arg);
     } else {
+      // Every stage instance the robot can run: one whose camera the robot
+      // file lacks (a two-camera config over a one-camera robot) is left out.
       for (const auto& inst : stack.instances()) {
-        if (registry.has(stack.roleOf(inst))) instances.push_back(inst);
+        if (!registry.has(stack.roleOf(inst))) continue;
+        const auto absent = stack.absentCameras(inst);
+        if (!absent.empty()) {
+          log::info("note: ", inst, " left out: its camera '", absent.front(),
+                    "' is not in the robot file ", stack.robot.file.string());
+          continue;
+        }
+        instances.push_back(inst);
       }
     }
     if (instances.empty()) {

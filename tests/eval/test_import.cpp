@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -164,13 +166,21 @@ class Import : public ::testing::Test {
                                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
     data_ = dir_ / "dataset";
     log_ = dir_ / "out.lcmlog";
+    // The default stack config comes from the environment or the working
+    // directory (./config/vslam.yaml): neither here.
+    ::unsetenv("VSLAM_CONFIG");
+    cwd_ = fs::current_path();
+    fs::current_path(dir_);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override {
+    fs::current_path(cwd_);
+    fs::remove_all(dir_);
+  }
   std::vector<std::string> baseArgs() const {
     return {data_.string(), "--calibration", (data_ / "calib.yml").string(), "--out",
             log_.string()};
   }
-  fs::path dir_, data_, log_;
+  fs::path dir_, data_, log_, cwd_;
 };
 
 }  // namespace
@@ -430,6 +440,109 @@ TEST_F(Import, BadInputsAreNamed) {
   EXPECT_TRUE(contains(r.err, "absent: no such folder")) << r.err;
   // Everything restored: it imports.
   EXPECT_EQ(runImport(baseArgs()).code, 0);
+}
+
+// A stack config whose robot file has one camera 'front' calibrated for
+// width x height, on its own channels.
+fs::path writeStackConfig(const fs::path& dir, int width, int height) {
+  writeCalibration(dir / "robot_calib.yml", width, height);
+  std::string channels = "channels:\n";
+  for (const char* key :
+       {"odometry", "ground_truth", "health", "pose_estimate", "pose_odometry",
+        "visual_measurement", "visual_measurement_filtered", "landmark_proposal", "landmark_update",
+        "landmark_summary", "landmark_request", "map", "particles", "appearance_hypotheses",
+        "appearance_map", "appearance_event"}) {
+    std::string upper = key;
+    for (auto& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    channels += std::string("  ") + key + ": " + upper + "\n";
+  }
+  writeText(dir / "robot.yaml",
+            "name: one_camera_test\n"
+            "cameras:\n"
+            "  - name: front\n"
+            "    calibration: robot_calib.yml\n"
+            "    frame_rate_hz: 2\n"
+            "    position_m: [0.1, 0.0, 0.3]\n"
+            "    orientation_deg: {yaw: 0, pitch: 0, roll: 0}\n"
+            "    image_channel: FRONT_IMAGE\n"
+            "    calibration_channel: FRONT_CALIBRATION\n" +
+                channels);
+  writeText(dir / "stack.yaml", "robot: robot.yaml\nprocesses: {}\n");
+  return dir / "stack.yaml";
+}
+
+TEST_F(Import, ImagesOfAnotherSizeThanTheRobotFileAreRefused) {
+  writeDataset(data_, false);
+  // Without a stack config the size cannot be checked: said, not silent.
+  auto r = runImport(baseArgs());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.err, "not checked against a robot file")) << r.err;
+  fs::remove(log_);
+
+  // The robot's camera is 32x24, the images 64x48: refused, both sizes named.
+  const fs::path stack = writeStackConfig(dir_, kWidth / 2, kHeight / 2);
+  auto args = baseArgs();
+  for (const char* a : {"--config", "", "--camera", "front"}) {
+    args.push_back(*a ? a : stack.string());
+  }
+  r = runImport(args);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "the images are 64x48, but camera 'front' in")) << r.err;
+  EXPECT_TRUE(contains(r.err, "robot.yaml is 32x24")) << r.err;
+  EXPECT_TRUE(contains(r.err, "--resize 32x24")) << r.err;
+  EXPECT_FALSE(fs::exists(log_));
+  EXPECT_FALSE(fs::exists(log_.string() + ".partial"));
+
+  // Resized to another size than the robot's: refused as well.
+  auto resized = args;
+  resized.insert(resized.end(), {"--resize", "40x30"});
+  r = runImport(resized);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "64x48 resized to 40x30, but camera 'front'")) << r.err;
+
+  // Resized to the robot's size: imported on the robot file's channels, with
+  // the rescaled intrinsics.
+  resized = args;
+  resized.insert(resized.end(), {"--resize", "32x24"});
+  r = runImport(resized);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(contains(r.err, "not checked")) << r.err;
+  int images = 0, calibrations = 0;
+  for (const auto& ev : vslam::test::readLogEvents(log_)) {
+    EXPECT_NE(ev.channel, "CAM_FRONT_IMAGE");
+    if (ev.channel == "FRONT_IMAGE") {
+      const auto m = decode<vslam::image_t>(ev);
+      EXPECT_EQ(m.width, kWidth / 2);
+      EXPECT_EQ(m.height, kHeight / 2);
+      ++images;
+    } else if (ev.channel == "FRONT_CALIBRATION") {
+      const auto m = decode<vslam::camera_calibration_t>(ev);
+      EXPECT_EQ(m.width, kWidth / 2);
+      EXPECT_DOUBLE_EQ(m.fx, 25.0);
+      ++calibrations;
+    }
+  }
+  EXPECT_EQ(images, kImages);
+  EXPECT_GT(calibrations, 0);
+
+  // A camera the robot file does not have, and a stack config that is not
+  // there: bad command line / configuration, exit 2.
+  auto other = baseArgs();
+  other.insert(other.end(), {"--config", stack.string(), "--camera", "forward"});
+  r = runImport(other);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_TRUE(contains(r.err, "--camera forward: no such camera")) << r.err;
+  EXPECT_TRUE(contains(r.err, "cameras: front")) << r.err;
+  other = baseArgs();
+  other.insert(other.end(), {"--config", (dir_ / "absent.yaml").string()});
+  r = runImport(other);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_TRUE(contains(r.err, "absent.yaml")) << r.err;
+
+  // The program: exit 1 with the message.
+  const auto p = runProgram("vslam-import", args);
+  EXPECT_EQ(p.exit_code, 1) << p.output;
+  EXPECT_TRUE(contains(p.output, "is 32x24")) << p.output;
 }
 
 TEST_F(Import, ProgramExitCodes) {

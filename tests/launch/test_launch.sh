@@ -278,7 +278,7 @@ done
 for conf in "$ROOT"/config/launch/*.conf; do
   name=$(basename "$conf" .conf)
   rc=0
-  VSLAM_BIN=$work/bin VSLAM_LOG_DIR=$work/logs \
+  VSLAM_BIN=$work/bin VSLAM_LOG_DIR=$work/logs VSLAM_REPLAY_LOG=$work/replay.lcmlog \
     "$LAUNCH" "$name" --check --config "$work/vslam.yaml" >"$work/check.out" 2>&1 || rc=$?
   [ "$rc" -eq 0 ] || fail "launch $name --check: exit $rc: $(cat "$work/check.out")"
   grep -q 'start order.*logger(' "$work/check.out" || fail "profile $name has no logger: $(cat "$work/check.out")"
