@@ -109,9 +109,7 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
     graph_->addNode(reading.utime, {reading.pose, distance_m_, rotation_rad_},
                     filter_.estimate().mean);
   }
-  const double keep_s =
-      graph_ ? std::max(params_.max_measurement_age_s, params_.map_correction.creation_max_age_s)
-             : params_.max_measurement_age_s;
+  const double keep_s = historySpanS();
   const auto keep_us = static_cast<int64_t>(keep_s * 1e6);
   // Keep one reading older than the window: times inside it interpolate.
   while (history_.size() > 2 && history_[1].reading.utime < reading.utime - keep_us) {
@@ -360,10 +358,14 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   return finish(MeasurementUse::kUsed);
 }
 
+double Backend::historySpanS() const {
+  // The map correction places landmarks announced late: it needs more.
+  return graph_ ? std::max(params_.max_measurement_age_s, params_.map_correction.creation_max_age_s)
+                : params_.max_measurement_age_s;
+}
+
 void Backend::mapDeferredLandmarks() {
-  const double keep_s =
-      graph_ ? std::max(params_.max_measurement_age_s, params_.map_correction.creation_max_age_s)
-             : params_.max_measurement_age_s;
+  const double keep_s = historySpanS();
   for (const auto& [id, m] : deferred_) {
     MeasurementUse why = MeasurementUse::kUsed;
     const std::optional<OdometryAt> then = odometryAt(m.utime, keep_s, &why);

@@ -173,6 +173,8 @@ class Backend {
   }
 
  private:
+  // Seconds of odometry kept behind the newest reading.
+  double historySpanS() const;
   // The odometry at `utime`, interpolated in the history; none (and *why)
   // if `utime` is more than max_age_s before the newest reading or after it
   // by more than max_measurement_lead_s.
