@@ -1,0 +1,119 @@
+#include "stages/replay_cli.hpp"
+
+#include <CLI/CLI.hpp>
+#include <cstdlib>
+#include <regex>
+
+#include "bus/lockstep_replay.hpp"
+#include "bus/process_main.hpp"
+#include "config/stack_config.hpp"
+#include "stages/builtin_stages.hpp"
+#include "util/log.hpp"
+
+namespace vslam::stages {
+namespace {
+
+std::string stageRoles() {
+  std::string s;
+  for (const auto& r : builtinStages().roles()) s += (s.empty() ? "" : " ") + r;
+  return s;
+}
+
+// The instances to run: those named, else every stage instance the robot can
+// run (one whose camera the robot file lacks, a two-camera config over a
+// one-camera robot, is left out with a note).
+std::vector<std::string> chooseInstances(const config::StackConfig& stack,
+                                         const std::vector<std::string>& named) {
+  if (!named.empty()) return named;
+  std::vector<std::string> instances;
+  for (const auto& inst : stack.instances()) {
+    if (!builtinStages().has(stack.roleOf(inst))) continue;
+    const auto absent = stack.absentCameras(inst);
+    if (!absent.empty()) {
+      log::info("note: ", inst, " left out: its camera '", absent.front(),
+                "' is not in the robot file ", stack.robot.file.string());
+      continue;
+    }
+    instances.push_back(inst);
+  }
+  return instances;
+}
+
+}  // namespace
+
+int runReplayCli(const std::vector<std::string>& args) {
+  bus::ReplayOptions options;
+  std::string input, output, config_file;
+  std::vector<std::string> stages;
+  CLI::App app{
+      "vslam-replay: runs the stack's stages in lock-step over a recorded LCM log\n"
+      "(deterministic, as fast as the CPU)",
+      "vslam-replay"};
+  app.add_option("log", input, "the input LCM log")->required();
+  app.add_option("--out", output, "the output LCM log")->required();
+  app.add_option("--config", config_file,
+                 "stack configuration (default $VSLAM_CONFIG, else config/vslam.yaml)");
+  app.add_option("--stages", stages,
+                 "process instances to run (default: every instance whose role is a stage, "
+                 "but those whose camera the robot file lacks: " +
+                     stageRoles() + ")")
+      ->delimiter(',');
+  app.add_option("--channels", options.input_channels,
+                 "feed only input channels matching this regular expression")
+      ->default_str(".*")
+      ->check([](const std::string& re) -> std::string {
+        try {
+          std::regex check(re);
+          return "";
+        } catch (const std::regex_error& e) {
+          return "not a regular expression: " + std::string(e.what());
+        }
+      });
+  app.add_flag("!--no-inputs", options.keep_inputs, "write only what the stages publish");
+  app.add_flag("--keep-health", options.keep_health,
+               "also write health messages (wall-clock timing: not deterministic)");
+  try {
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints help (0) or the error and a hint
+    return code == 0 ? bus::kExitOk : bus::kExitUsage;
+  }
+  options.input = input;
+  options.output = output;
+  if (config_file.empty()) {
+    const char* env = std::getenv("VSLAM_CONFIG");
+    config_file = env && *env ? env : "config/vslam.yaml";
+  }
+
+  try {
+    const auto stack = config::StackConfig::loadFile(config_file);
+    options.health_channel = stack.robot.channels.health;
+    options.health_period_s = stack.health_period_s;
+    bus::LockstepReplay replay(options);
+    const std::vector<std::string> instances = chooseInstances(stack, stages);
+    if (instances.empty()) {
+      log::error("no stage to run: no instance in ", config_file, " has a stage role");
+      return bus::kExitUsage;
+    }
+    for (const auto& inst : instances) {
+      replay.addStage(inst, builtinStages().create(stack, inst));
+      log::info("stage ", inst, " (role ", stack.roleOf(inst), ")");
+    }
+    const bus::ReplayStats s = replay.run();
+    log::info("replayed ", s.events_fed, " of ", s.events_read, " events (", s.events_dropped,
+              " dropped: stage outputs or filtered), stages published ", s.messages_published,
+              "; wrote ", s.events_written, " events to ", options.output.string(), "; ",
+              s.log_seconds, " s of log in ", s.wall_seconds, " s (",
+              s.wall_seconds > 0 ? s.log_seconds / s.wall_seconds : 0.0, "x real time)");
+    return s.input_truncated || s.events_missing > 0 ? bus::kExitFailure : bus::kExitOk;
+  } catch (const config::ConfigError& e) {
+    log::error("configuration error: ", e.what());
+    return bus::kExitUsage;
+  } catch (const std::exception& e) {
+    log::error(e.what());
+    return bus::kExitFailure;
+  }
+}
+
+}  // namespace vslam::stages
