@@ -332,10 +332,12 @@ TEST(HomeGenerator, WorldgenProgram) {
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"--out " + dir.string(), "--seed is required"},
       {"--seed 3", "--out is required"},
-      {"--seed -3 --out x", "--seed expects a whole number"},
-      {"--seed 3 --out x --kind big", "--kind expects single, sequence, kidnap or auto"},
-      {"--seed 3 --out x --colour", "unknown argument '--colour'"},
-      {"--seed", "--seed needs a value"},
+      {"--seed -3 --out x", "--seed: expects a whole number from 0 to 2^64-1, got '-3'"},
+      {"--seed 3.5 --out x", "got '3.5'"},
+      {"--seed 99999999999999999999 --out x", "got '99999999999999999999'"},
+      {"--seed 3 --out x --kind big", "--kind: big not in {single,sequence,kidnap,auto}"},
+      {"--seed 3 --out x --colour", "not expected: --colour"},
+      {"--seed", "--seed: 1 required UINT missing"},
   };
   for (const auto& [args, message] : bad) {
     out.clear();
