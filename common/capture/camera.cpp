@@ -25,6 +25,12 @@ Camera::Camera(std::unique_ptr<FrameSource> source, Opener reopen, CameraParams 
       wall_minus_monotonic_(wallUtime() - monotonicUtime()),
       reopen_delay_s_(params.reopen_initial_s) {
   if (!source_) throw std::invalid_argument("Camera: no source");
+  if (params_.alternate.active()) {
+    if (params_.max_fps <= 0) {
+      throw std::invalid_argument("Camera: alternating needs max_fps > 0 (the rate slots share)");
+    }
+    turns_.emplace(params_.alternate, params_.max_fps);
+  }
   native_size_ = source_->nativeSize();
 }
 
@@ -174,8 +180,15 @@ Camera::Result Camera::readOne(Frame* out, bool* got) {
     ++counters_.dropped_stale;
     return Result::kTimeout;
   }
-  if (params_.max_fps > 0 && emitted_any_ &&
-      toSeconds(utime - last_emitted_utime_) < 0.9 / params_.max_fps) {
+  if (turns_) {
+    // Taking turns replaces the rate limit: one frame per period, in its slot.
+    if (!turns_->take(utime)) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++counters_.dropped_turn;
+      return Result::kTimeout;
+    }
+  } else if (params_.max_fps > 0 && emitted_any_ &&
+             toSeconds(utime - last_emitted_utime_) < 0.9 / params_.max_fps) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.dropped_rate;
     return Result::kTimeout;

@@ -10,9 +10,11 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "capture/frame_source.hpp"
+#include "util/alternation.hpp"
 
 namespace vslam::capture {
 
@@ -20,6 +22,9 @@ struct CameraParams {
   int width = 0;       // output size, pixels; 0 (both): the source's own
   int height = 0;      //
   double max_fps = 0;  // frames closer than 0.9 / max_fps to the last one are dropped; 0: no limit
+  // Taking turns with other cameras (needs max_fps): only the first frame
+  // whose time falls in this camera's slot of each slots / max_fps period.
+  Alternation alternate;
   // Recordings: pace frames at `speed` x their own rate; 0: as fast as they
   // decode. Frame times are the recording's times either way.
   double speed = 1.0;
@@ -48,6 +53,7 @@ struct CameraCounters {
   int64_t frames = 0;           // emitted
   int64_t dropped_stale = 0;    // time not after the last emitted one: repeated or backwards
   int64_t dropped_rate = 0;     // over max_fps
+  int64_t dropped_turn = 0;     // alternating: not this camera's turn
   int64_t read_errors = 0;      // reads that failed (a missing or undecodable file, a driver error)
   int64_t sources_lost = 0;     // times the source went away
   int64_t reopen_attempts = 0;  // tries to open it again...
@@ -93,7 +99,8 @@ class Camera {
   std::unique_ptr<FrameSource> source_;
   Opener reopen_;
   const CameraParams params_;
-  const Utime wall_minus_monotonic_;  // robot (wall) clock from the monotonic clock
+  const Utime wall_minus_monotonic_;      // robot (wall) clock from the monotonic clock
+  std::optional<AlternationGate> turns_;  // params_.alternate, if active
 
   // Replay pacing and times: the first frame's media time, the monotonic and
   // robot time it was emitted at, and the offset of the current lap.

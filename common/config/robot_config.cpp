@@ -68,6 +68,25 @@ Eigen::Matrix3d robotRotationCamera(double yaw_rad, double pitch_rad, double rol
   return r * forward;
 }
 
+Alternation readAlternation(const ConfigNode& node, const std::string& key, double rate_hz) {
+  Alternation a;
+  if (!node.has(key)) return a;
+  const ConfigNode n = node.child(key);
+  a.slots = static_cast<int>(n.getInt("slots", InRange{1, 1000}));
+  a.slot = static_cast<int>(n.getInt("slot", InRange{0, 999}));
+  n.requireAllKeysUsed();
+  if (a.slot >= a.slots) {
+    throw n.error("slot", "slot " + std::to_string(a.slot) + " of " + std::to_string(a.slots) +
+                              " slots: slots are numbered 0.." + std::to_string(a.slots - 1));
+  }
+  try {
+    checkAlternation(a, rate_hz);
+  } catch (const std::invalid_argument& e) {
+    throw n.error("slots", e.what());
+  }
+  return a;
+}
+
 RobotConfig RobotConfig::load(const ConfigNode& node) {
   RobotConfig robot;
   robot.file = node.file();
@@ -89,6 +108,7 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
     cam.cy = k.cy;
     cam.distortion = k.distortion;
     cam.frame_rate_hz = c.getDouble("frame_rate_hz", InRange{0.1, 1000});
+    cam.alternate = readAlternation(c, "alternate", cam.frame_rate_hz);
     const auto t = c.getDoubles("position_m", 3, InRange{-10, 10});
     const ConfigNode o = c.child("orientation_deg");
     const double yaw = degToRad(o.getDouble("yaw", InRange{-360, 360}));
@@ -138,6 +158,23 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
       }
     }
   }
+  // Cameras taking turns must share the period and not the slot.
+  const CameraConfig* first_alternating = nullptr;
+  std::set<int> slots_taken;
+  for (const auto& cam : robot.cameras) {
+    if (!cam.alternate.active()) continue;
+    if (!first_alternating) first_alternating = &cam;
+    if (cam.alternate.slots != first_alternating->alternate.slots ||
+        cam.frame_rate_hz != first_alternating->frame_rate_hz) {
+      throw node.error("cameras", "cameras '" + first_alternating->name + "' and '" + cam.name +
+                                      "' alternate with different slots or frame_rate_hz");
+    }
+    if (!slots_taken.insert(cam.alternate.slot).second) {
+      throw node.error("cameras", "camera '" + cam.name + "' alternates in slot " +
+                                      std::to_string(cam.alternate.slot) +
+                                      ", which another camera has");
+    }
+  }
   node.requireAllKeysUsed();
   return robot;
 }
@@ -160,7 +197,11 @@ void RobotConfig::print(std::ostream& os) const {
     os << "  camera " << c.name << ": " << c.width << "x" << c.height << " @ " << c.frame_rate_hz
        << " Hz, fx=" << c.fx << " fy=" << c.fy << " cx=" << c.cx << " cy=" << c.cy << ", position ["
        << t.x() << ", " << t.y() << ", " << t.z() << "] m, channels " << c.image_channel << " "
-       << c.calibration_channel << "\n";
+       << c.calibration_channel;
+    if (c.alternate.active()) {
+      os << ", alternating: slot " << c.alternate.slot << " of " << c.alternate.slots;
+    }
+    os << "\n";
   }
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "config/config_node.hpp"
+#include "util/alternation.hpp"
 
 namespace vslam::config {
 
@@ -34,6 +35,9 @@ struct CameraConfig {
   double fx = 0, fy = 0, cx = 0, cy = 0;  // pixels
   std::vector<double> distortion;         // OpenCV order k1 k2 p1 p2 [k3 ...]
   double frame_rate_hz = 0;
+  // Taking turns with other cameras (`alternate:`): the simulator renders
+  // this camera only in its slot of slots / frame_rate_hz (util/alternation.hpp).
+  Alternation alternate;
   // Camera frame (OpenCV: x right, y down, z optical axis) in the robot base
   // frame (x forward, y left, z up).
   Eigen::Isometry3d robot_T_camera = Eigen::Isometry3d::Identity();
@@ -73,6 +77,11 @@ struct RobotConfig {
   const CameraConfig& camera(const std::string& name) const;  // throws std::out_of_range
   void print(std::ostream& os) const;
 };
+
+// An `alternate: {slot: K, slots: N}` block (util/alternation.hpp) for
+// cameras sharing `rate_hz`; ConfigError names `key`.slot or `key`.slots.
+// Absent: no alternation.
+Alternation readAlternation(const ConfigNode& node, const std::string& key, double rate_hz);
 
 // Camera orientation given as yaw/pitch/roll of the optical axis relative to
 // a camera looking straight forward along the robot's x axis, level, image

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <stdexcept>
 #include <vslam/camera_calibration_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
@@ -10,6 +11,7 @@
 #include <vslam/odometry_t.hpp>
 
 #include "bus/messages.hpp"
+#include "util/alternation.hpp"
 
 namespace vslam::sim {
 namespace {
@@ -50,6 +52,7 @@ struct Simulator::Camera {
   std::unique_ptr<world::Renderer> renderer;
   Utime period_us = 100000;
   Utime next_frame_us = 0;
+  std::optional<AlternationGate> turns;  // alternating cameras render only in their slot
   int64_t seq = 0;
   cv::Mat frame;
   vslam::image_t msg;
@@ -141,6 +144,7 @@ Simulator::Simulator(const Scenario& scenario, const config::RobotConfig& robot,
                              cam_cfg.cx,    cam_cfg.cy,     cam_cfg.distortion};
     cam->renderer = std::make_unique<world::Renderer>(*world_, model);
     cam->period_us = static_cast<Utime>(std::llround(1e6 / cam_cfg.frame_rate_hz));
+    if (cam_cfg.alternate.active()) cam->turns.emplace(cam_cfg.alternate, cam_cfg.frame_rate_hz);
     cameras_.push_back(std::move(cam));
   }
 }
@@ -196,7 +200,8 @@ void Simulator::emitCalibration(EventSink& sink, Utime t) {
 void Simulator::renderDueCameras(EventSink& sink, const Pose2& previous_pose) {
   bool any = false;
   for (auto& cam : cameras_) {
-    cam->due = t_us_ >= cam->next_frame_us;
+    // A camera taking turns renders at the first odometry step in its slot.
+    cam->due = cam->turns ? cam->turns->take(start_utime_ + t_us_) : t_us_ >= cam->next_frame_us;
     any = any || cam->due;
   }
   if (!any) return;

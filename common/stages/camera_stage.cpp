@@ -75,6 +75,10 @@ CameraStageParams CameraStageParams::load(const config::ConfigNode& node,
     throw node.error(c.width == 0 ? "width" : "height", "give both width and height, or neither");
   }
   c.max_fps = node.getDouble("max_fps", c.max_fps, config::InRange{0, 1000});
+  if (node.has("alternate") && c.max_fps <= 0) {
+    throw node.error("alternate", "needs max_fps > 0: the cameras taking turns share that rate");
+  }
+  c.alternate = config::readAlternation(node, "alternate", c.max_fps);
   c.speed = node.getDouble("speed", c.speed, config::InRange{0, 1000});
   c.loop = node.getBool("loop", c.loop);
   if (!p.source.isReplay()) {
@@ -117,6 +121,11 @@ void CameraStage::start(bus::StageContext& ctx) {
             capture::pixelEncodingName(params_.encoding), " ",
             sizeText(params_.camera.width, params_.camera.height), " on ",
             params_.camera.image_channel);
+  const Alternation& turns = params_.capture.alternate;
+  if (turns.active()) {
+    log::info("camera '", params_.camera.name, "' takes turns: slot ", turns.slot, " of ",
+              turns.slots, ", ", params_.capture.max_fps / turns.slots, " Hz");
+  }
   onTimer(ctx.clock.now());
   thread_ = std::thread([this] { captureLoop(); });
 }
@@ -169,6 +178,7 @@ void CameraStage::collectHealth(bus::HealthReport& report) {
   report.add("frames_total", static_cast<double>(c.frames), "count");
   report.add("dropped_stale", static_cast<double>(c.dropped_stale), "count");
   report.add("dropped_rate", static_cast<double>(c.dropped_rate), "count");
+  report.add("dropped_turn", static_cast<double>(c.dropped_turn), "count");
   report.add("dropped_size", static_cast<double>(wrong_size_.load()), "count");
   report.add("read_errors", static_cast<double>(c.read_errors), "count");
   report.add("sources_lost", static_cast<double>(c.sources_lost), "count");

@@ -56,6 +56,11 @@ TEST_F(CameraStageConfig, ABlockThatFitsBuilds) {
                                     "    camera: forward\n    source: video:v.avi\n"
                                     "    encoding: jpeg\n    width: 320\n    height: 240\n")),
             "");
+  EXPECT_EQ(configError(writeConfig(dir_.path(),
+                                    "    camera: forward\n    source: video:v.avi\n"
+                                    "    encoding: jpeg\n    width: 320\n    height: 240\n"
+                                    "    max_fps: 10\n    alternate: {slot: 1, slots: 2}\n")),
+            "");
 }
 
 TEST_F(CameraStageConfig, ErrorsNameTheKey) {
@@ -76,6 +81,16 @@ TEST_F(CameraStageConfig, ErrorsNameTheKey) {
       {"    camera: forward\n    source: video:v.avi\n    encoding: gray8\n    v4l2:\n"
        "      width: 640\n",
        {"processes.cam.v4l2", "device settings need a v4l2: source"}},
+      // Taking turns: the shared rate, and a slot of the slots.
+      {"    camera: forward\n    source: video:v.avi\n    encoding: gray8\n    width: 320\n"
+       "    height: 240\n    alternate: {slot: 0, slots: 2}\n",
+       {"processes.cam.alternate", "needs max_fps > 0"}},
+      {"    camera: forward\n    source: video:v.avi\n    encoding: gray8\n    width: 320\n"
+       "    height: 240\n    max_fps: 10\n    alternate: {slot: 2, slots: 2}\n",
+       {"processes.cam.alternate.slot", "slot 2 of 2 slots", "0..1"}},
+      {"    camera: forward\n    source: video:v.avi\n    encoding: gray8\n    width: 320\n"
+       "    height: 240\n    max_fps: 10\n    alternate: {slot: 0}\n",
+       {"processes.cam.alternate.slots"}},
   };
   for (const auto& [block, wanted] : cases) {
     const std::string error = configError(writeConfig(dir_.path(), block));

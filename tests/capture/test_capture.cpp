@@ -157,6 +157,57 @@ TEST(VideoFile, RateLimitAndResize) {
   EXPECT_GE(camera->counters().dropped_rate, 9);
 }
 
+TEST(ImageFolder, AlternatingCamerasTakeTheFirstFrameOfTheirSlotEachPeriod) {
+  // 25 Hz frames; two cameras sharing max_fps 10 take turns in 0.2 s periods.
+  TempDir dir;
+  const int n = 50;
+  const double frame_period_s = 0.04;
+  writeFolder(dir.path(), n, 0.0, frame_period_s, {64, 48});
+  // The folder's frame times as the library reads them (rgb.txt, microseconds).
+  std::vector<Utime> media(n);
+  for (int i = 0; i < n; ++i) media[i] = std::llround((0.0 + i * frame_period_s) * 1e6);
+  for (int slot : {0, 1}) {
+    CameraParams p = fastParams();
+    p.max_fps = 10;
+    p.alternate = {slot, 2};
+    auto camera = makeCamera("folder:" + dir.path().string(), p);
+    const auto first = readFrames(*camera, 1);
+    ASSERT_EQ(first.size(), 1u);
+    // Every frame's robot time, from the first one taken and the file's times.
+    const int64_t k = first[0].source_index;
+    std::vector<int64_t> expected;  // source indices: the first in the slot of each period
+    int64_t last_period = -1;
+    for (int i = 0; i < n; ++i) {
+      const Utime t = first[0].utime + media[i] - media[k];
+      const int64_t period = t / 200000;
+      if ((t % 200000) / 100000 == slot && period != last_period) {
+        expected.push_back(i);
+        last_period = period;
+      }
+    }
+    ASSERT_GE(expected.size(), 9u);
+    EXPECT_EQ(expected.front(), k) << "slot " << slot;
+    const auto rest = readFrames(*camera, expected.size() - 1);
+    std::vector<int64_t> got{k};
+    for (size_t i = 0; i < rest.size(); ++i) {
+      got.push_back(rest[i].source_index);
+      EXPECT_EQ(rest[i].seq, static_cast<int64_t>(i + 1));  // turns not taken are not numbered
+    }
+    EXPECT_EQ(got, expected) << "slot " << slot;
+    EXPECT_EQ(camera->counters().dropped_turn,
+              expected.back() + 1 - static_cast<int64_t>(expected.size()));
+    EXPECT_EQ(camera->counters().dropped_rate, 0);
+  }
+  // Taking turns needs the rate the turns share.
+  CameraParams no_rate = fastParams();
+  no_rate.alternate = {0, 2};
+  EXPECT_THROW(makeCamera("folder:" + dir.path().string(), no_rate), std::invalid_argument);
+  CameraParams bad_slot = fastParams();
+  bad_slot.max_fps = 10;
+  bad_slot.alternate = {2, 2};
+  EXPECT_THROW(makeCamera("folder:" + dir.path().string(), bad_slot), std::invalid_argument);
+}
+
 TEST(VideoFile, MissingFileIsASourceError) {
   try {
     openSource(SourceSpec::parse("video:/nonexistent/v.avi"));

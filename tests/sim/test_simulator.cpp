@@ -156,6 +156,36 @@ TEST_F(SimulatorTest, NoiselessOdometryIsTheTrueMotionAndKidnapIsNotInIt) {
   EXPECT_LT(odo_jump, 0.3 * 0.02 + 1e-9);
 }
 
+TEST_F(SimulatorTest, AlternatingCamerasRenderOnlyInTheirSlots) {
+  // 10 Hz shared by two cameras: forward in the first half of each 0.2 s
+  // period, backward in the second; the log starts on a period boundary.
+  robot_.cameras[0].alternate = {0, 2};
+  robot_.cameras[1].alternate = {1, 2};
+  const auto events = vslam::test::readLog(simulate(writeScenario(""), "alternating.lcmlog"));
+  std::map<std::string, std::vector<int64_t>> image_times;  // since the start, microseconds
+  int odometry = 0;
+  const int64_t start = 1767225600LL * 1000000;
+  for (const auto& e : events) {
+    odometry += e.channel == "ODOMETRY";
+    if (e.channel == "CAM_FORWARD_IMAGE" || e.channel == "CAM_BACKWARD_IMAGE") {
+      const auto img = decode<vslam::image_t>(e);
+      EXPECT_EQ(img.utime, e.timestamp);
+      image_times[e.channel].push_back(img.utime - start);
+    }
+  }
+  const auto& forward = image_times["CAM_FORWARD_IMAGE"];
+  const auto& backward = image_times["CAM_BACKWARD_IMAGE"];
+  // One frame per camera per 0.2 s: each at 5 Hz, together the 10 Hz of one camera.
+  EXPECT_EQ(static_cast<int>(forward.size()), (odometry + 9) / 10);
+  EXPECT_EQ(static_cast<int>(backward.size()), (odometry + 4) / 10);
+  for (size_t i = 0; i < forward.size(); ++i) {
+    EXPECT_EQ(forward[i], static_cast<int64_t>(i) * 200000) << "forward frame " << i;
+  }
+  for (size_t i = 0; i < backward.size(); ++i) {
+    EXPECT_EQ(backward[i], 100000 + static_cast<int64_t>(i) * 200000) << "backward frame " << i;
+  }
+}
+
 TEST_F(SimulatorTest, SameScenarioGivesTheSameLog) {
   const fs::path scenario = writeScenario("", 0.02);
   const auto a = vslam::test::readFileBytes(simulate(scenario, "a.lcmlog"));
