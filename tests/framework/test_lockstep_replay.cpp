@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <utility>
+#include <vector>
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 #include <vslam/particle_set_t.hpp>
@@ -292,6 +294,33 @@ TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
             1);
   EXPECT_NE(err.find("not a complete event"), std::string::npos) << err;
   EXPECT_FALSE(readLog(dir_ / "cut_out.lcmlog").empty());  // what was replayed is kept
+}
+
+// The two-camera config over a one-camera robot: the default replay leaves
+// out the instances whose camera the robot file lacks, says so, and runs.
+TEST_F(LockstepReplayTest, DefaultReplayLeavesOutStagesOfAnAbsentCamera) {
+  std::string text = vslam::test::readFileBytes(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"robot: robot/sim_two_camera.yaml",
+            "robot: " + std::string(VSLAM_SOURCE_DIR) + "/config/robot/one_camera.yaml"},
+           {"map_file: ../out/maps/landmarks.vslam-map", "map_file: \"\""}}) {
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  const std::string cfg = (dir_ / "one_camera.yaml").string();
+  std::ofstream(cfg) << text;
+  std::string log;
+  ASSERT_EQ(runCommand(std::string(VSLAM_BIN_DIR) + "/vslam-replay " + input_.string() +
+                           " --config " + cfg + " --out " + (dir_ / "one.lcmlog").string(),
+                       &log),
+            0)
+      << log;
+  EXPECT_NE(log.find("frontend_backward left out: its camera 'backward'"), std::string::npos)
+      << log;
+  EXPECT_NE(log.find("stage frontend_forward"), std::string::npos) << log;
+  EXPECT_NE(log.find("stage backend"), std::string::npos) << log;
+  EXPECT_EQ(log.find("stage frontend_backward"), std::string::npos) << log;
 }
 
 // --print-config lists what the process read: its own block and the stack
