@@ -7,6 +7,29 @@
 #include "util/angles.hpp"
 
 namespace vslam::config {
+
+const std::vector<ChannelNames::Field>& ChannelNames::fields() {
+  using C = ChannelNames;
+  static const std::vector<Field> all = {
+      {"odometry", &C::odometry},
+      {"ground_truth", &C::ground_truth},
+      {"health", &C::health},
+      {"pose_estimate", &C::pose_estimate},
+      {"pose_odometry", &C::pose_odometry},
+      {"visual_measurement", &C::visual_measurement},
+      {"visual_measurement_filtered", &C::visual_measurement_filtered},
+      {"landmark_proposal", &C::landmark_proposal},
+      {"landmark_update", &C::landmark_update},
+      {"landmark_summary", &C::landmark_summary},
+      {"landmark_request", &C::landmark_request},
+      {"map", &C::map},
+      {"particles", &C::particles},
+      {"appearance_hypotheses", &C::appearance_hypotheses},
+      {"appearance_map", &C::appearance_map},
+      {"appearance_event", &C::appearance_event},
+  };
+  return all;
+}
 CameraIntrinsics readOpenCvCalibration(const std::filesystem::path& file) {
   const std::string name = file.string();
   auto fail = [&](const std::string& what, const std::string& problem) {
@@ -125,23 +148,7 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
   if (robot.cameras.empty()) throw node.error("cameras", "at least one camera is required");
 
   const ConfigNode ch = node.child("channels");
-  ChannelNames& n = robot.channels;
-  n.odometry = ch.getChannel("odometry");
-  n.ground_truth = ch.getChannel("ground_truth");
-  n.health = ch.getChannel("health");
-  n.pose_estimate = ch.getChannel("pose_estimate");
-  n.pose_odometry = ch.getChannel("pose_odometry");
-  n.visual_measurement = ch.getChannel("visual_measurement");
-  n.visual_measurement_filtered = ch.getChannel("visual_measurement_filtered");
-  n.landmark_proposal = ch.getChannel("landmark_proposal");
-  n.landmark_update = ch.getChannel("landmark_update");
-  n.landmark_summary = ch.getChannel("landmark_summary");
-  n.landmark_request = ch.getChannel("landmark_request");
-  n.map = ch.getChannel("map");
-  n.particles = ch.getChannel("particles");
-  n.appearance_hypotheses = ch.getChannel("appearance_hypotheses");
-  n.appearance_map = ch.getChannel("appearance_map");
-  n.appearance_event = ch.getChannel("appearance_event");
+  for (const auto& f : ChannelNames::fields()) robot.channels.*f.member = ch.getChannel(f.key);
   ch.requireAllKeysUsed();
 
   // A channel carries one type: no two roles may share a name.

@@ -63,6 +63,13 @@ struct ChannelNames {
   std::string appearance_hypotheses;        // vslam.appearance_hypotheses_t
   std::string appearance_map;               // vslam.appearance_map_t
   std::string appearance_event;             // vslam.appearance_event_t
+
+  // Every field with its key in the robot file's `channels:` block.
+  struct Field {
+    const char* key;
+    std::string ChannelNames::*member;
+  };
+  static const std::vector<Field>& fields();
 };
 
 struct RobotConfig {

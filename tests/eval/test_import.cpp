@@ -19,6 +19,7 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "config/robot_config.hpp"
 #include "eval/import_cli.hpp"
 #include "eval_test_util.hpp"
 
@@ -447,14 +448,10 @@ TEST_F(Import, BadInputsAreNamed) {
 fs::path writeStackConfig(const fs::path& dir, int width, int height) {
   writeCalibration(dir / "robot_calib.yml", width, height);
   std::string channels = "channels:\n";
-  for (const char* key :
-       {"odometry", "ground_truth", "health", "pose_estimate", "pose_odometry",
-        "visual_measurement", "visual_measurement_filtered", "landmark_proposal", "landmark_update",
-        "landmark_summary", "landmark_request", "map", "particles", "appearance_hypotheses",
-        "appearance_map", "appearance_event"}) {
-    std::string upper = key;
+  for (const auto& f : vslam::config::ChannelNames::fields()) {
+    std::string upper = f.key;
     for (auto& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    channels += std::string("  ") + key + ": " + upper + "\n";
+    channels += std::string("  ") + f.key + ": " + upper + "\n";
   }
   writeText(dir / "robot.yaml",
             "name: one_camera_test\n"

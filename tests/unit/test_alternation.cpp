@@ -177,14 +177,10 @@ config::RobotConfig loadRobot(const std::string& forward, const std::string& bac
     ++index;
   }
   yaml += "channels:\n";
-  for (const char* key :
-       {"odometry", "ground_truth", "health", "pose_estimate", "pose_odometry",
-        "visual_measurement", "visual_measurement_filtered", "landmark_proposal", "landmark_update",
-        "landmark_summary", "landmark_request", "map", "particles", "appearance_hypotheses",
-        "appearance_map", "appearance_event"}) {
-    std::string channel = key;
+  for (const auto& f : config::ChannelNames::fields()) {
+    std::string channel = f.key;
     for (char& c : channel) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    yaml += std::string("  ") + key + ": CH_" + channel + "\n";
+    yaml += std::string("  ") + f.key + ": CH_" + channel + "\n";
   }
   return config::RobotConfig::load(config::ConfigNode::loadString(yaml, "robot.yaml"));
 }

@@ -215,14 +215,10 @@ TEST(RobotConfig, BadCalibrationAndDuplicatesAreRejected) {
       "    position_m: [0, 0, 0.3]\n    orientation_deg: {yaw: 0, pitch: 0, roll: 0}\n"
       "    image_channel: A_IMAGE\n    calibration_channel: A_CAL\n";
   std::string channels = "channels:\n";
-  for (const char* k :
-       {"odometry", "ground_truth", "health", "pose_estimate", "pose_odometry",
-        "visual_measurement", "visual_measurement_filtered", "landmark_proposal", "landmark_update",
-        "landmark_summary", "landmark_request", "map", "particles", "appearance_hypotheses",
-        "appearance_map", "appearance_event"}) {
-    std::string upper = k;
+  for (const auto& f : vslam::config::ChannelNames::fields()) {
+    std::string upper = f.key;
     for (auto& ch : upper) ch = static_cast<char>(std::toupper(ch));
-    channels += std::string("  ") + k + ": " + upper + "\n";
+    channels += std::string("  ") + f.key + ": " + upper + "\n";
   }
   writeFile(dir / "robot.yaml", "name: r\ncameras:\n" + camera + channels);
   try {
