@@ -48,30 +48,30 @@ FrameSource FrameSource::folder(const std::filesystem::path& dir) {
   return s;
 }
 
-FrameSource FrameSource::video(const std::filesystem::path& file) {
-  if (!std::filesystem::is_regular_file(file))
-    throw std::runtime_error("no such video: " + file.string());
+FrameSource FrameSource::stream(const capture::SourceSpec& spec, std::string label) {
   FrameSource s;
-  s.capture_ = std::make_shared<cv::VideoCapture>(file.string());
-  if (!s.capture_->isOpened()) throw std::runtime_error("cannot decode video " + file.string());
-  s.label_ = "video " + file.string();
+  try {
+    s.stream_ = capture::openSource(spec);
+  } catch (const capture::SourceError& e) {
+    throw std::runtime_error(e.what());
+  }
+  s.label_ = std::move(label);
   return s;
+}
+
+FrameSource FrameSource::video(const std::filesystem::path& file) {
+  return stream({capture::SourceSpec::Kind::kVideo, file.string(), {}}, "video " + file.string());
 }
 
 FrameSource FrameSource::device(int index) {
   const std::string path = "/dev/video" + std::to_string(index);
-  if (!std::filesystem::exists(path)) throw std::runtime_error("no camera " + path);
-  FrameSource s;
-  s.capture_ = std::make_shared<cv::VideoCapture>(index, cv::CAP_V4L2);
-  if (!s.capture_->isOpened()) throw std::runtime_error("cannot open camera " + path);
-  s.label_ = "camera " + path;
-  return s;
+  return stream({capture::SourceSpec::Kind::kV4l2, path, {}}, "camera " + path);
 }
 
 std::string FrameSource::describe() const { return label_; }
 
 bool FrameSource::next(cv::Mat* gray, std::string* name, int stride) {
-  if (!capture_) {
+  if (!stream_) {
     if (next_file_ >= files_.size()) return false;
     const auto& file = files_[next_file_++];
     const cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
@@ -80,14 +80,19 @@ bool FrameSource::next(cv::Mat* gray, std::string* name, int stride) {
     *name = file.filename().string();
     return true;
   }
-  cv::Mat frame;
-  for (int skipped = 1; skipped < std::max(stride, 1); ++skipped) {
-    if (!capture_->grab()) return false;
+  // Frames in between are decoded and dropped (a stream does not seek).
+  capture::SourceFrame frame;
+  std::string error;
+  for (int k = 0; k < std::max(stride, 1); ++k) {
+    capture::ReadStatus status = capture::ReadStatus::kError;
+    for (int errors = 0; status == capture::ReadStatus::kError && errors < 10; ++errors) {
+      status = stream_->read(&frame, &error);
+    }
+    if (status != capture::ReadStatus::kFrame) return false;  // the end, or failing
     ++frame_index_;
   }
-  if (!capture_->read(frame) || frame.empty()) return false;
-  *name = "frame " + std::to_string(frame_index_++);
-  *gray = toGray(frame);
+  *name = "frame " + std::to_string(frame_index_ - 1);
+  *gray = toGray(frame.image);
   return true;
 }
 

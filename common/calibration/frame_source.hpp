@@ -1,13 +1,15 @@
 #pragma once
-// Frames for vslam-calibrate: a list of image files, an image folder, a
-// video file, or a live camera (cv::VideoCapture on V4L2). No LCM.
+// Frames for vslam-calibrate: a list of image files or an image folder (no
+// timestamps needed), or a stream of the camera driver's capture library (a
+// video file, a live V4L2 camera). No LCM.
 
 #include <filesystem>
 #include <memory>
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
 #include <string>
 #include <vector>
+
+#include "capture/frame_source.hpp"
 
 namespace vslam::calibration {
 
@@ -28,9 +30,10 @@ class FrameSource {
 
  private:
   FrameSource() = default;
+  static FrameSource stream(const capture::SourceSpec& spec, std::string label);
   std::vector<std::filesystem::path> files_;
   size_t next_file_ = 0;
-  std::shared_ptr<cv::VideoCapture> capture_;  // video or device
+  std::shared_ptr<capture::FrameSource> stream_;  // video or device
   std::string label_;
   int64_t frame_index_ = 0;
 };

@@ -10,10 +10,12 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 #include <sstream>
 
 #include "calibration/calibrate_cli.hpp"
 #include "calibration/calibration.hpp"
+#include "calibration/frame_source.hpp"
 #include "config/robot_config.hpp"
 
 namespace fs = std::filesystem;
@@ -393,6 +395,35 @@ TEST(Synthetic, CharucoViewsThroughAKnownCameraGiveItBack) {
   // refined next to the markers' edges: about twice the chessboard's error
   // (measured 2026-11-26: rms 0.22 px, fy 1.0 px off, projection 1.3 px).
   expectIntrinsics(r, cam, r.views, {2.0, 0.3, 2.0});
+}
+
+// A video is read through the camera driver's capture library: every frame,
+// or every stride-th, in order, as grey, named by its index.
+TEST(CalibrationFrames, AVideoIsReadFrameByFrameWithAStride) {
+  const std::vector<fs::path> views = sampleViews();
+  if (views.empty()) GTEST_SKIP() << "OpenCV's sample views are not installed (opencv-doc)";
+  const fs::path video = tempFile("views.avi");
+  {
+    cv::VideoWriter writer(video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 5,
+                           cv::imread(views[0].string()).size());
+    ASSERT_TRUE(writer.isOpened());
+    for (const auto& v : views) writer.write(cv::imread(v.string()));
+  }
+  for (const int stride : {1, 3}) {
+    cal::FrameSource source = cal::FrameSource::video(video);
+    cv::Mat gray;
+    std::string name;
+    std::vector<std::string> names;
+    while (source.next(&gray, &name, stride)) {
+      EXPECT_EQ(gray.type(), CV_8UC1);
+      EXPECT_EQ(gray.size(), cv::Size(640, 480));
+      names.push_back(name);
+    }
+    ASSERT_EQ(names.size(), views.size() / static_cast<size_t>(stride)) << "stride " << stride;
+    EXPECT_EQ(names.front(), "frame " + std::to_string(stride - 1));
+    EXPECT_EQ(names.back(), "frame " + std::to_string(stride * names.size() - 1));
+  }
+  EXPECT_THROW(cal::FrameSource::video(tempFile("none.avi")), std::runtime_error);
 }
 
 // ---- command line ----------------------------------------------------------
