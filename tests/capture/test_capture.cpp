@@ -208,14 +208,19 @@ TEST(ImageFolder, AlternatingCamerasTakeTheFirstFrameOfTheirSlotEachPeriod) {
   EXPECT_THROW(makeCamera("folder:" + dir.path().string(), bad_slot), std::invalid_argument);
 }
 
-TEST(VideoFile, MissingFileIsASourceError) {
+// Opening `spec` throws a SourceError on "source" whose message holds `text`.
+void expectSourceError(const std::string& spec, const std::string& text) {
   try {
-    openSource(SourceSpec::parse("video:/nonexistent/v.avi"));
-    FAIL() << "opened";
+    openSource(SourceSpec::parse(spec));
+    FAIL() << "opened " << spec;
   } catch (const SourceError& e) {
     EXPECT_EQ(e.setting(), "source");
-    EXPECT_NE(std::string(e.what()).find("/nonexistent/v.avi"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
   }
+}
+
+TEST(VideoFile, MissingFileIsASourceError) {
+  expectSourceError("video:/nonexistent/v.avi", "/nonexistent/v.avi");
 }
 
 TEST(ImageFolder, TimesFromTheTimestampsFile) {
@@ -398,13 +403,7 @@ bool haveVideoDevice() {
 }
 
 TEST(V4l2, AMissingDeviceIsNamed) {
-  try {
-    openSource(SourceSpec::parse("v4l2:/dev/video-vslam-none"));
-    FAIL() << "opened";
-  } catch (const SourceError& e) {
-    EXPECT_EQ(e.setting(), "source");
-    EXPECT_NE(std::string(e.what()).find("no device /dev/video-vslam-none"), std::string::npos);
-  }
+  expectSourceError("v4l2:/dev/video-vslam-none", "no device /dev/video-vslam-none");
 }
 
 TEST(V4l2, ReadsFramesFromARealDevice) {
