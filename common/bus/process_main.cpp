@@ -1,8 +1,11 @@
 #include "bus/process_main.hpp"
 
+#include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
+#include <optional>
 
 #include "bus/runner.hpp"
 #include "util/log.hpp"
@@ -18,50 +21,45 @@ struct ProcessArgs {
   bool print_config = false;
 };
 
-void printUsage(const std::string& program) {
-  std::cout << "usage: " << program
-            << " [--config FILE] [--instance NAME] [--lcm-url URL] [--print-config]\n"
-               "  --config FILE   stack configuration (default: $VSLAM_CONFIG, else "
-               "config/vslam.yaml)\n"
-               "  --instance NAME block under processes: to run (default: the role name)\n"
-               "  --lcm-url URL   LCM provider (default: $LCM_DEFAULT_URL, else the config's "
-               "lcm.url,\n"
-               "                  else udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608)\n"
-               "  --print-config  print the validated configuration and exit\n";
+// Parses the command line; returns an exit code if the process should stop
+// here (help printed: 0; a bad command line, said why: kExitUsage).
+std::optional<int> parseArgs(int argc, char** argv, const std::string& program, ProcessArgs* args) {
+  CLI::App app{program + ": one process of the vslam stack (a stage over LCM)", program};
+  app.add_option("--config", args->config_file,
+                 "stack configuration (default: $VSLAM_CONFIG, else config/vslam.yaml)");
+  app.add_option("--instance", args->instance,
+                 "block under processes: to run (default: the role name)");
+  app.add_option("--lcm-url", args->lcm_url,
+                 "LCM provider (default: $LCM_DEFAULT_URL, else the config's lcm.url, else "
+                 "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608)");
+  app.add_flag("--print-config", args->print_config,
+               "print the validated configuration (each value with its unit, default and "
+               "meaning) and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints help (0) or the error and a hint
+    return code == 0 ? kExitOk : kExitUsage;
+  }
+  return std::nullopt;
 }
 
-// Returns false (after printing why) on a bad command line.
-bool parseArgs(int argc, char** argv, ProcessArgs* args, bool* help) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const std::string& name, std::string* out) {
-      if (a == name) {
-        if (i + 1 >= argc) {
-          std::cerr << argv[0] << ": " << name << " needs a value\n";
-          return false;
-        }
-        *out = argv[++i];
-        return true;
-      }
-      if (a.rfind(name + "=", 0) == 0) {
-        *out = a.substr(name.size() + 1);
-        return true;
-      }
-      return false;
-    };
-    if (a == "--help" || a == "-h") {
-      *help = true;
-    } else if (a == "--print-config") {
-      args->print_config = true;
-    } else if (value("--config", &args->config_file) || value("--instance", &args->instance) ||
-               value("--lcm-url", &args->lcm_url)) {
-      continue;
-    } else {
-      std::cerr << argv[0] << ": unknown argument '" << a << "' (see --help)\n";
-      return false;
-    }
+// One --print-config line: the value, and what the declaration says of it.
+std::string describedLine(const config::ResolvedValue& value,
+                          const std::map<std::string, config::ParamDoc>& docs) {
+  std::string line = value.key + " = " + value.value;
+  auto it = docs.find(value.key);
+  if (it == docs.end()) return line + (value.is_default ? "  (default)" : "");
+  const config::ParamDoc& d = it->second;
+  if (!d.unit.empty()) line += " " + d.unit;
+  if (value.is_default) {
+    line += "  (default)";
+  } else if (d.default_value == "required") {
+    line += "  (required)";
+  } else if (d.default_value != value.value) {
+    line += "  (default " + d.default_value + ")";
   }
-  return true;
+  return line + "  -- " + d.meaning;
 }
 
 }  // namespace
@@ -69,12 +67,7 @@ bool parseArgs(int argc, char** argv, ProcessArgs* args, bool* help) {
 int runStageProcess(int argc, char** argv, const std::string& role, const StageRegistry& registry) {
   const std::string program = "vslam-" + role;
   ProcessArgs args;
-  bool help = false;
-  if (!parseArgs(argc, argv, &args, &help)) return kExitUsage;
-  if (help) {
-    printUsage(program);
-    return kExitOk;
-  }
+  if (const auto exit_code = parseArgs(argc, argv, program, &args)) return *exit_code;
   if (args.instance.empty()) args.instance = role;
   if (args.config_file.empty()) {
     const char* env = std::getenv("VSLAM_CONFIG");
@@ -103,9 +96,11 @@ int runStageProcess(int argc, char** argv, const std::string& role, const StageR
     stack->robot.print(std::cout);
     std::cout << "instance " << args.instance << " (role " << role << ") from " << args.config_file
               << ":\n";
-    for (const auto& p : params) {
-      std::cout << "  " << p.key << " = " << p.value << (p.is_default ? "  (default)" : "") << "\n";
+    std::map<std::string, config::ParamDoc> docs;
+    for (auto& d : registry.describeParams(role)) {
+      docs.emplace("processes." + args.instance + "." + d.key, std::move(d));
     }
+    for (const auto& p : params) std::cout << "  " << describedLine(p, docs) << "\n";
     return kExitOk;
   }
   for (const auto& p : params) {

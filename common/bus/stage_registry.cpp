@@ -4,10 +4,18 @@
 
 namespace vslam::bus {
 
-void StageRegistry::add(const std::string& role, StageFactory factory) {
+void StageRegistry::add(const std::string& role, StageFactory factory, ParamDescriber params) {
   if (!factories_.emplace(role, std::move(factory)).second) {
     throw std::logic_error("stage role '" + role + "' registered twice");
   }
+  if (params) describers_.emplace(role, std::move(params));
+}
+
+std::vector<config::ParamDoc> StageRegistry::describeParams(const std::string& role,
+                                                            const config::ConfigNode* block) const {
+  auto it = describers_.find(role);
+  if (it == describers_.end()) return {};
+  return it->second(block);
 }
 
 bool StageRegistry::has(const std::string& role) const { return factories_.count(role) > 0; }

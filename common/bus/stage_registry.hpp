@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "bus/stage.hpp"
+#include "config/param_table.hpp"
 #include "config/stack_config.hpp"
 
 namespace vslam::bus {
@@ -22,11 +23,31 @@ struct StageSetup {
 };
 
 using StageFactory = std::function<std::unique_ptr<Stage>(const StageSetup&)>;
+// The role's declared parameters with their defaults; given a block of a
+// config file, also the values it sets where they differ.
+using ParamDescriber =
+    std::function<std::vector<config::ParamDoc>(const config::ConfigNode* block)>;
+
+// The describer of a role whose parameters are one ParamTable (`table`
+// must outlive the registry: a function-local static).
+template <class Params>
+ParamDescriber describeWith(const config::ParamTable<Params>& table) {
+  return [&table](const config::ConfigNode* block) {
+    const Params defaults;
+    if (!block) return table.describe(defaults);
+    Params configured;
+    table.load(*block, configured);
+    return table.describe(defaults, &configured, block);
+  };
+}
 
 class StageRegistry {
  public:
-  void add(const std::string& role, StageFactory factory);
+  void add(const std::string& role, StageFactory factory, ParamDescriber params = {});
   bool has(const std::string& role) const;
+  // The role's declared parameters (empty if it declared none).
+  std::vector<config::ParamDoc> describeParams(const std::string& role,
+                                               const config::ConfigNode* block = nullptr) const;
   std::vector<std::string> roles() const;
   // Builds the stage of `instance` from the stack config: checks the block's
   // role is known (and equals expected_role if given), runs the factory, then
@@ -36,6 +57,7 @@ class StageRegistry {
 
  private:
   std::map<std::string, StageFactory> factories_;
+  std::map<std::string, ParamDescriber> describers_;
 };
 
 }  // namespace vslam::bus

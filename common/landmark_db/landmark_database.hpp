@@ -28,6 +28,8 @@
 namespace vslam::landmark_db {
 
 struct PrunePolicy {
+  bool enabled = true;              // the landmark DB stage runs a pass...
+  double period_s = 30;             // ...every this many seconds of robot time
   double min_age_s = 120;           // only landmarks at least this old (robot time) are judged
   int min_recognitions = 3;         // fewer measurements by then: rarely recognized, pruned
   int min_verdicts = 10;            // with at least this many pre-filter verdicts...

@@ -32,6 +32,7 @@
 namespace vslam::stages {
 
 struct AppearanceParams {
+  std::vector<std::string> camera_names;      // of the robot file, as the config lists them
   std::vector<config::CameraConfig> cameras;  // one histogram per camera, in this order
   std::string odometry_channel;
   std::string hypotheses_channel;
@@ -48,6 +49,8 @@ struct AppearanceParams {
   bool map_save = false;
   double map_save_period_s = 60.0;  // 0: only at shutdown
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<AppearanceParams>& table();
   static AppearanceParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
 

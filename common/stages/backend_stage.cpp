@@ -37,184 +37,287 @@ void copyCovariance(const Eigen::Matrix3d& c, double* out) {
   }
 }
 
-void loadMixture(const config::ConfigNode& mx, backend::MixtureParams& m) {
-  using config::InRange;
-  m.dual_ratio_min = mx.getDouble("dual_ratio_min", m.dual_ratio_min, InRange{0, 1});
-  m.dual_ratio_max = mx.getDouble("dual_ratio_max", m.dual_ratio_max, InRange{0, 1});
-  if (m.dual_ratio_max < m.dual_ratio_min)
-    throw mx.error("dual_ratio_max", "must be at least dual_ratio_min");
-  m.agreement_smoothing =
-      mx.getDouble("agreement_smoothing", m.agreement_smoothing, InRange{1e-3, 1});
-  m.motion_min_sigma_xy_m =
-      mx.getDouble("motion_min_sigma_xy_m", m.motion_min_sigma_xy_m, InRange{1e-4, 100});
-  m.motion_min_sigma_theta_rad = degToRad(mx.getDouble(
-      "motion_min_sigma_theta_deg", radToDeg(m.motion_min_sigma_theta_rad), InRange{1e-3, 180}));
-  mx.requireAllKeysUsed();
+using config::InRange;
+using config::ParamTable;
+
+ParamTable<backend::MixtureParams> mixtureTable() {
+  using M = backend::MixtureParams;
+  ParamTable<M> t;
+  t.add("dual_ratio_min", &M::dual_ratio_min, InRange{0, 1}, "",
+        "dual fraction while measurements agree")
+      .add("dual_ratio_max", &M::dual_ratio_max, InRange{0, 1}, "",
+           "dual fraction approached as the agreement falls")
+      .add("agreement_smoothing", &M::agreement_smoothing, InRange{1e-3, 1}, "",
+           "weight of the newest measurement in the running agreement")
+      .add("motion_min_sigma_xy_m", &M::motion_min_sigma_xy_m, InRange{1e-4, 100}, "m",
+           "floor of the motion density that weighs particles")
+      .degrees("motion_min_sigma_theta_deg", &M::motion_min_sigma_theta_rad, InRange{1e-3, 180},
+               "same for θ")
+      .check([](const config::ConfigNode& node, const M& m) {
+        if (m.dual_ratio_max < m.dual_ratio_min)
+          throw node.error("dual_ratio_max", "must be at least dual_ratio_min");
+      });
+  return t;
 }
 
-void loadOutlier(const config::ConfigNode& ol, backend::OutlierParams& o) {
-  using config::InRange;
-  o.probability = ol.getDouble("probability", o.probability, InRange{0, 0.999});
-  o.area_m2 = ol.getDouble("area_m2", o.area_m2, InRange{1e-3, 1e9});
-  o.gate_mahalanobis_sq =
-      ol.getDouble("gate_mahalanobis_sq", o.gate_mahalanobis_sq, InRange{1e-3, 1e9});
-  ol.requireAllKeysUsed();
+ParamTable<backend::OutlierParams> outlierTable() {
+  using O = backend::OutlierParams;
+  ParamTable<O> t;
+  t.add("probability", &O::probability, InRange{0, 0.999}, "",
+        "ε of the robust likelihood (0: Gaussian, no gate)")
+      .add("area_m2", &O::area_m2, InRange{1e-3, 1e9}, "m²",
+           "support of the uniform outlier density")
+      .add("gate_mahalanobis_sq", &O::gate_mahalanobis_sq, InRange{1e-3, 1e9}, "",
+           "larger innovations do not update the particle's landmark filter");
+  return t;
 }
 
-void loadKidnap(const config::ConfigNode& kd, backend::KidnapParams& k) {
-  using config::InRange;
-  k.detect_agreement = kd.getDouble("detect_agreement", k.detect_agreement, InRange{0, 1});
-  k.detect_count = static_cast<int>(kd.getInt("detect_count", k.detect_count, InRange{1, 1000}));
-  k.recover_agreement = kd.getDouble("recover_agreement", k.recover_agreement, InRange{0, 1});
-  k.recover_count = static_cast<int>(kd.getInt("recover_count", k.recover_count, InRange{1, 1000}));
-  k.detect_landmarks =
-      static_cast<int>(kd.getInt("detect_landmarks", k.detect_landmarks, InRange{1, 1000}));
-  // The defaults are the struct's (backend/particle_filter.hpp).
-  k.detect_min_span_s = kd.getDouble("detect_min_span_s", k.detect_min_span_s, InRange{0, 600});
-  k.cluster_xy_m = kd.getDouble("cluster_xy_m", k.cluster_xy_m, InRange{1e-3, 100});
-  k.cluster_theta_rad =
-      degToRad(kd.getDouble("cluster_deg", radToDeg(k.cluster_theta_rad), InRange{1e-3, 180}));
-  k.suspect_after = static_cast<int>(kd.getInt("suspect_after", k.suspect_after, InRange{0, 1000}));
-  k.recover_landmarks =
-      static_cast<int>(kd.getInt("recover_landmarks", k.recover_landmarks, InRange{1, 1000}));
-  k.recover_window_s = kd.getDouble("recover_window_s", k.recover_window_s, InRange{0, 600});
-  k.drift_gate_mahalanobis_sq =
-      kd.getDouble("drift_gate_mahalanobis_sq", k.drift_gate_mahalanobis_sq, InRange{0, 1e6});
-  k.drift_sigma_scale = kd.getDouble("drift_sigma_scale", k.drift_sigma_scale, InRange{1e-3, 1000});
-  kd.requireAllKeysUsed();
+ParamTable<backend::KidnapParams> kidnapTable() {
+  using K = backend::KidnapParams;
+  ParamTable<K> t;
+  t.add("detect_agreement", &K::detect_agreement, InRange{0, 1}, "",
+        "a measurement agreeing less is \"inconsistent\"")
+      .add("detect_count", &K::detect_count, InRange{1, 1000}, "",
+           "inconsistent measurements in a row that declare a kidnapping")
+      .add("recover_agreement", &K::recover_agreement, InRange{0, 1}, "",
+           "while kidnapped, a measurement agreeing at least this much is \"consistent\"")
+      .add("recover_count", &K::recover_count, InRange{1, 1000}, "",
+           "consistent measurements in a row that end it")
+      .add("detect_landmarks", &K::detect_landmarks, InRange{1, 1000}, "",
+           "...from at least this many distinct landmarks (that agree on one pose, below)")
+      .add("detect_min_span_s", &K::detect_min_span_s, InRange{0, 600}, "s",
+           "...and the inconsistent run must last this long (measurement capture times)")
+      .add("cluster_xy_m", &K::cluster_xy_m, InRange{1e-3, 100}, "m",
+           "`detect_landmarks` must agree on one robot pose (each measurement's implied pose, "
+           "carried to now by the odometry) within this distance...")
+      .degrees("cluster_deg", &K::cluster_theta_rad, InRange{1e-3, 180}, "...and this angle")
+      .add("suspect_after", &K::suspect_after, InRange{0, 1000}, "",
+           "a landmark in this many contradicted runs (ended by a consistent measurement), and in "
+           "at least half as many as its consistent measurements, is a look-alike: no kidnap "
+           "evidence, no dual particles, ignored while kidnapped; 0: never")
+      .add("recover_landmarks", &K::recover_landmarks, InRange{1, 1000}, "",
+           "consistent measurements that end a kidnapping come from at least this many distinct "
+           "landmarks")
+      .add("recover_window_s", &K::recover_window_s, InRange{0, 600}, "s",
+           "also confirmed when `recover_landmarks` distinct landmarks measured within this "
+           "window agree on one pose (`cluster_*`), the newest among them; 0: off")
+      .add("drift_gate_mahalanobis_sq", &K::drift_gate_mahalanobis_sq, InRange{0, 1e6}, "",
+           "evidence of a pose within this squared Mahalanobis distance of the estimate is drift: "
+           "the particles move onto it, no kidnapping; 0: every such evidence is a kidnapping")
+      .add("drift_sigma_scale", &K::drift_sigma_scale, InRange{1e-3, 1000}, "",
+           "...under this scale² × the particles' covariance + Σ_vis");
+  return t;
 }
 
-void loadOdometryCalibration(const config::ConfigNode& oc, backend::OdometryCalibrationParams& c) {
-  using config::InRange;
-  // The defaults are the struct's (backend/odometry_calibration.hpp).
-  c.enabled = oc.getBool("enabled", c.enabled);
-  c.adopt = oc.getBool("adopt", c.adopt);
-  c.min_travel = oc.getDouble("min_travel", c.min_travel, InRange{1e-3, 100});
-  c.max_travel = oc.getDouble("max_travel", c.max_travel, InRange{1e-3, 1000});
-  c.max_span_s = oc.getDouble("max_span_s", c.max_span_s, InRange{1e-3, 3600});
-  c.max_residual_m = oc.getDouble("max_residual_m", c.max_residual_m, InRange{1e-3, 100});
-  c.max_residual_rad =
-      degToRad(oc.getDouble("max_residual_deg", radToDeg(c.max_residual_rad), InRange{1e-3, 180}));
-  c.min_pairs = static_cast<int>(oc.getInt("min_pairs", c.min_pairs, InRange{3, 1e6}));
-  c.max_pairs = static_cast<int>(oc.getInt("max_pairs", c.max_pairs, InRange{3, 1e7}));
-  if (c.max_pairs < c.min_pairs) throw oc.error("max_pairs", "must be at least min_pairs");
-  if (c.max_travel <= c.min_travel) throw oc.error("max_travel", "must exceed min_travel");
-  oc.requireAllKeysUsed();
+ParamTable<backend::OdometryCalibrationParams> odometryCalibrationTable() {
+  using C = backend::OdometryCalibrationParams;
+  ParamTable<C> t;
+  t.add("enabled", &C::enabled,
+        "estimate the odometry's noise and biases from the measurements (health, log)")
+      .add("adopt", &C::adopt,
+           "the motion model and the graph's odometry edges take the estimated sigmas")
+      .add("min_travel", &C::min_travel, InRange{1e-3, 100}, "m + rad", "a pair's shortest span")
+      .add("max_travel", &C::max_travel, InRange{1e-3, 1000}, "m + rad", "a pair's longest span")
+      .add("max_span_s", &C::max_span_s, InRange{1e-3, 3600}, "s", "a pair's longest time span")
+      .add("max_residual_m", &C::max_residual_m, InRange{1e-3, 100}, "m",
+           "larger residuals are not odometry noise")
+      .degrees("max_residual_deg", &C::max_residual_rad, InRange{1e-3, 180}, "same for θ")
+      .add("min_pairs", &C::min_pairs, InRange{3, 1e6}, "", "pairs before an estimate is valid")
+      .add("max_pairs", &C::max_pairs, InRange{3, 1e7}, "", "window of the newest pairs")
+      .check([](const config::ConfigNode& node, const C& c) {
+        if (c.max_pairs < c.min_pairs) throw node.error("max_pairs", "must be at least min_pairs");
+        if (c.max_travel <= c.min_travel) throw node.error("max_travel", "must exceed min_travel");
+      });
+  return t;
 }
 
-void loadMapCorrection(const config::ConfigNode& mc, backend::MapCorrectionParams& m,
-                       const MotionNoise& motion) {
-  using config::InRange;
-  m.enabled = mc.getBool("enabled", m.enabled);
-  m.solve_interval_s = mc.getDouble("solve_interval_s", m.solve_interval_s, InRange{0, 3600});
-  m.max_outlier_fraction =
-      mc.getDouble("max_outlier_fraction", m.max_outlier_fraction, InRange{0, 1});
-  m.measurement_min_interval_s =
-      mc.getDouble("measurement_min_interval_s", m.measurement_min_interval_s, InRange{0, 3600});
-  m.creation_max_age_s =
-      mc.getDouble("creation_max_age_s", m.creation_max_age_s, InRange{0.01, 3600});
-  m.kidnap_jump_m = mc.getDouble("kidnap_jump_m", m.kidnap_jump_m, InRange{1e-3, 1000});
-  m.kidnap_jump_rad =
-      degToRad(mc.getDouble("kidnap_jump_deg", radToDeg(m.kidnap_jump_rad), InRange{1e-3, 180}));
-  m.landmark_sigma_xy_m =
-      mc.getDouble("landmark_sigma_xy_m", m.landmark_sigma_xy_m, InRange{1e-4, 10});
-  m.landmark_sigma_theta_rad = degToRad(mc.getDouble(
-      "landmark_sigma_theta_deg", radToDeg(m.landmark_sigma_theta_rad), InRange{1e-3, 90}));
-  backend::PoseGraphParams& g = m.graph;
-  // The odometry noise is the motion model's.
-  g.sigma_translation = std::max(motion.sigma_translation, 1e-4);
-  g.sigma_rotation = std::max(motion.sigma_rotation, 1e-4);
-  g.measurement_sigma_xy_m =
-      mc.getDouble("measurement_sigma_xy_m", g.measurement_sigma_xy_m, InRange{1e-4, 10});
-  g.measurement_sigma_xy_per_m =
-      mc.getDouble("measurement_sigma_xy_per_m", g.measurement_sigma_xy_per_m, InRange{0, 10});
-  g.measurement_sigma_theta_rad = degToRad(mc.getDouble(
-      "measurement_sigma_theta_deg", radToDeg(g.measurement_sigma_theta_rad), InRange{1e-3, 90}));
-  g.measurement_sigma_theta_rad_per_m =
-      degToRad(mc.getDouble("measurement_sigma_theta_deg_per_m",
-                            radToDeg(g.measurement_sigma_theta_rad_per_m), InRange{0, 90}));
-  g.max_measurement_distance_m =
-      mc.getDouble("max_measurement_distance_m", g.max_measurement_distance_m, InRange{1e-3, 100});
-  // The defaults of the robust loss are the struct's (backend/pose_graph.hpp).
-  if (mc.has("robust_loss")) {
-    g.robust_loss = mc.getEnum("robust_loss", {"huber", "cauchy"}) == "huber"
-                        ? backend::PoseGraphParams::RobustLoss::kHuber
-                        : backend::PoseGraphParams::RobustLoss::kCauchy;
-  }
-  g.robust_sigmas = mc.getDouble("robust_sigmas", g.robust_sigmas, InRange{0.1, 100});
-  g.max_iterations =
-      static_cast<int>(mc.getInt("max_iterations", g.max_iterations, InRange{1, 1000}));
-  g.odometry_gate_mahalanobis_sq =
-      mc.getDouble("odometry_gate_mahalanobis_sq", g.odometry_gate_mahalanobis_sq, InRange{0, 1e6});
-  g.min_agreeing = static_cast<int>(mc.getInt("min_agreeing", g.min_agreeing, InRange{0, 1000}));
-  g.segment_prior_sigma_xy_m =
-      mc.getDouble("segment_prior_sigma_xy_m", g.segment_prior_sigma_xy_m, InRange{1e-3, 100});
-  g.segment_prior_sigma_theta_rad =
-      degToRad(mc.getDouble("segment_prior_sigma_theta_deg",
-                            radToDeg(g.segment_prior_sigma_theta_rad), InRange{1e-3, 180}));
-  mc.requireAllKeysUsed();
+ParamTable<backend::MapCorrectionParams> mapCorrectionTable() {
+  using M = backend::MapCorrectionParams;
+  using Loss = backend::PoseGraphParams::RobustLoss;
+  ParamTable<M> t;
+  t.add("enabled", &M::enabled, "the pose graph of docs/backend.md, Map correction")
+      .add("solve_interval_s", &M::solve_interval_s, InRange{0, 3600}, "s",
+           "robot time between solves (each needs a new measurement in the graph)")
+      .add("max_outlier_fraction", &M::max_outlier_fraction, InRange{0, 1}, "",
+           "a measurement enters if at most this fraction of the particles gates it out")
+      .add("measurement_min_interval_s", &M::measurement_min_interval_s, InRange{0, 3600}, "s",
+           "at most one measurement per landmark per interval into the graph")
+      .add("creation_max_age_s", &M::creation_max_age_s, InRange{0.01, 3600}, "s",
+           "odometry kept to place creation nodes; must exceed the front-ends' view span (20 s) "
+           "plus the DB's round trip")
+      .add("kidnap_jump_m", &M::kidnap_jump_m, InRange{1e-3, 1000}, "m",
+           "a relocalization this far from the odometry's prediction breaks the graph's odometry "
+           "chain")
+      .degrees("kidnap_jump_deg", &M::kidnap_jump_rad, InRange{1e-3, 180}, "...or this far turned")
+      .add("landmark_sigma_xy_m", &M::landmark_sigma_xy_m, InRange{1e-4, 10}, "m",
+           "covariance of the filter's landmarks after a correction, x and y")
+      .degrees("landmark_sigma_theta_deg", &M::landmark_sigma_theta_rad, InRange{1e-3, 90},
+               "...and θ")
+      .add(
+          "measurement_sigma_xy_m", [](auto& m) -> auto& { return m.graph.measurement_sigma_xy_m; },
+          InRange{1e-4, 10}, "m",
+          "σ(d) = hypot(σ₀, k d) of a measurement edge, d its distance from the creation pose: σ₀")
+      .add(
+          "measurement_sigma_xy_per_m",
+          [](auto& m) -> auto& { return m.graph.measurement_sigma_xy_per_m; }, InRange{0, 10},
+          "m/m", "...k")
+      .degrees(
+          "measurement_sigma_theta_deg",
+          [](auto& m) -> auto& { return m.graph.measurement_sigma_theta_rad; }, InRange{1e-3, 90},
+          "the same for θ: σ₀")
+      .degrees(
+          "measurement_sigma_theta_deg_per_m",
+          [](auto& m) -> auto& { return m.graph.measurement_sigma_theta_rad_per_m; },
+          InRange{0, 90}, "...k", "deg/m")
+      .add(
+          "max_measurement_distance_m",
+          [](auto& m) -> auto& { return m.graph.max_measurement_distance_m; }, InRange{1e-3, 100},
+          "m", "farther measurements stay out of the graph")
+      .choice(
+          "robust_loss", [](auto& m) -> auto& { return m.graph.robust_loss; },
+          std::vector<std::pair<std::string, Loss>>{{"huber", Loss::kHuber},
+                                                    {"cauchy", Loss::kCauchy}},
+          "robust loss of the measurement edges: `cauchy` (the influence of an edge falls beyond "
+          "the scale, so a badly built landmark loses weight) or `huber` (the loss before "
+          "2026-11-25)")
+      .add(
+          "robust_sigmas", [](auto& m) -> auto& { return m.graph.robust_sigmas; },
+          InRange{0.1, 100}, "σ", "its scale (Huber: 3.0)")
+      .add(
+          "max_iterations", [](auto& m) -> auto& { return m.graph.max_iterations; },
+          InRange{1, 1000}, "", "Levenberg-Marquardt iterations per solve")
+      .add(
+          "odometry_gate_mahalanobis_sq",
+          [](auto& m) -> auto& { return m.graph.odometry_gate_mahalanobis_sq; }, InRange{0, 1e6},
+          "",
+          "a measurement agrees with the odometry since its landmark's creation if within this; "
+          "0: no test, every edge enters")
+      .add(
+          "min_agreeing", [](auto& m) -> auto& { return m.graph.min_agreeing; }, InRange{0, 1000},
+          "",
+          "a landmark's edges enter a solve once this many of its measurements agreed; one with at "
+          "least two against and as many against as for is retired (graph and filter)")
+      .add(
+          "segment_prior_sigma_xy_m",
+          [](auto& m) -> auto& { return m.graph.segment_prior_sigma_xy_m; }, InRange{1e-3, 100},
+          "m", "weak prior of the first node after such a break, x and y")
+      .degrees(
+          "segment_prior_sigma_theta_deg",
+          [](auto& m) -> auto& { return m.graph.segment_prior_sigma_theta_rad; },
+          InRange{1e-3, 180}, "...and θ");
+  return t;
 }
 
 }  // namespace
 
+const ParamTable<BackendStageParams>& BackendStageParams::table() {
+  using P = BackendStageParams;
+  static const ParamTable<P> declared = [] {
+    ParamTable<P> t;
+    t.add(
+         "num_particles", [](auto& p) -> auto& { return p.backend.filter.num_particles; },
+         InRange{1, 1e6}, "", "particles (paper: 200)")
+        .add(
+            "threads", [](auto& p) -> auto& { return p.backend.filter.num_threads; },
+            InRange{0, 256}, "", "TBB threads for particle updates; 0 = one per core")
+        .add(
+            "seed", [](auto& p) -> auto& { return p.backend.filter.seed; }, InRange{0, 9.0e18}, "",
+            "random seed; runs are reproducible for a given seed")
+        .add(
+            "sigma_translation",
+            [](auto& p) -> auto& { return p.backend.filter.motion.sigma_translation; },
+            config::nonNegative(), "m/√m", "σ_T of the motion model (as `deadreckon`)")
+        .required()
+        .add(
+            "sigma_rotation",
+            [](auto& p) -> auto& { return p.backend.filter.motion.sigma_rotation; },
+            config::nonNegative(), "rad/√(m or rad)", "σ_R of the motion model")
+        .required()
+        .add(
+            "measurement_sigma_xy_m",
+            [](auto& p) -> auto& { return p.backend.filter.measurement_sigma_xy_m; },
+            InRange{1e-4, 10.0}, "m", "Σ_vis, x and y (paper: 81 cm²)")
+        .degrees(
+            "measurement_sigma_theta_deg",
+            [](auto& p) -> auto& { return p.backend.filter.measurement_sigma_theta_rad; },
+            InRange{1e-3, 90.0}, "Σ_vis, θ (paper: 0.0019 rad²)")
+        .add(
+            "resample_ess_fraction",
+            [](auto& p) -> auto& { return p.backend.filter.resample_ess_fraction; },
+            InRange{0.0, 1.0}, "", "resample when ESS < this × particles")
+        .add(
+            "max_step_m", [](auto& p) -> auto& { return p.backend.max_step_m; }, config::positive(),
+            "m", "larger odometry jumps are faults: reference reset, no motion")
+        .degrees(
+            "max_step_deg", [](auto& p) -> auto& { return p.backend.max_step_rad; },
+            InRange{1, 180}, "same for rotation")
+        .add(
+            "max_measurement_age_s",
+            [](auto& p) -> auto& { return p.backend.max_measurement_age_s; }, InRange{0.01, 600},
+            "s", "odometry kept to align measurements; older ones are not used")
+        .add(
+            "max_measurement_lead_s",
+            [](auto& p) -> auto& { return p.backend.max_measurement_lead_s; }, InRange{0, 60}, "s",
+            "measurements newer than the newest odometry by more are not used")
+        .add(
+            "measurement_sigma_xy_per_m",
+            [](auto& p) -> auto& { return p.backend.measurement_sigma_xy_per_m; }, InRange{0, 10.0},
+            "m/m", "growth of Σ_vis (x, y) with the distance from the creation pose")
+        .degrees(
+            "measurement_sigma_theta_deg_per_m",
+            [](auto& p) -> auto& { return p.backend.measurement_sigma_theta_rad_per_m; },
+            InRange{0, 90.0}, "same for θ", "deg/m")
+        .add(
+            "landmark_min_interval_s",
+            [](auto& p) -> auto& { return p.backend.landmark_min_interval_s; }, InRange{0, 60}, "s",
+            "at most one measurement per landmark per interval (0: all)")
+        .path("map_prior_file", &P::map_prior_file, true,
+              "an earlier run's landmark map file (copy of `landmark_db.map_file`): its landmarks "
+              "with a back-end pose start in every particle (localization in a known map)")
+        .add("map_prior_sigma_xy_m", &P::map_prior_sigma_xy_m, InRange{1e-4, 10.0}, "m",
+             "their standard deviation, x and y")
+        .degrees("map_prior_sigma_theta_deg", &P::map_prior_sigma_theta_rad, InRange{1e-3, 90.0},
+                 "...and θ")
+        .choice("map_prior_start", &P::map_prior_unknown_start,
+                std::vector<std::pair<std::string, bool>>{{"origin", false}, {"unknown", true}},
+                "`origin`: the robot starts at the map's origin (where its first run started); "
+                "`unknown`: global relocalization, all dual particles from the first measurements "
+                "until confirmed")
+        .add("map_rate_hz", &P::map_rate_hz, InRange{0, 100}, "Hz",
+             "`MAP` messages per second of robot time (0: none)")
+        .add("particles_rate_hz", &P::particles_rate_hz, InRange{0, 100}, "Hz",
+             "`PARTICLES` messages per second of robot time (0: none)")
+        .add("odometry_timeout_s", &P::odometry_timeout_s, InRange{0.05, 3600}, "s",
+             "odometry quieter than this (the stage's clock) is logged once, reported as "
+             "`odometry_age_s` and raises health to WARN until it resumes")
+        .block(
+            "mixture", [](auto& p) -> auto& { return p.backend.filter.mixture; }, mixtureTable())
+        .block(
+            "outlier", [](auto& p) -> auto& { return p.backend.filter.outlier; }, outlierTable())
+        .block(
+            "kidnap", [](auto& p) -> auto& { return p.backend.filter.kidnap; }, kidnapTable())
+        .block(
+            "odometry_calibration", [](auto& p) -> auto& { return p.backend.odometry_calibration; },
+            odometryCalibrationTable())
+        .block(
+            "map_correction", [](auto& p) -> auto& { return p.backend.map_correction; },
+            mapCorrectionTable());
+    return t;
+  }();
+  return declared;
+}
+
 BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
                                             const config::RobotConfig& robot,
                                             const backend::PrefilterParams& prefilter) {
-  using config::InRange;
-  BackendStageParams p;
-  backend::BackendParams& b = p.backend;
-  backend::FilterParams& f = b.filter;
-  f.num_particles =
-      static_cast<int>(node.getInt("num_particles", f.num_particles, InRange{1, 1e6}));
-  f.num_threads = static_cast<int>(node.getInt("threads", f.num_threads, InRange{0, 256}));
-  f.seed =
-      static_cast<uint64_t>(node.getInt("seed", static_cast<int64_t>(f.seed), InRange{0, 9.0e18}));
-  f.motion.sigma_translation = node.getDouble("sigma_translation", config::nonNegative());
-  f.motion.sigma_rotation = node.getDouble("sigma_rotation", config::nonNegative());
-  f.measurement_sigma_xy_m =
-      node.getDouble("measurement_sigma_xy_m", f.measurement_sigma_xy_m, InRange{1e-4, 10.0});
-  f.measurement_sigma_theta_rad = degToRad(node.getDouble(
-      "measurement_sigma_theta_deg", radToDeg(f.measurement_sigma_theta_rad), InRange{1e-3, 90.0}));
-  f.resample_ess_fraction =
-      node.getDouble("resample_ess_fraction", f.resample_ess_fraction, InRange{0.0, 1.0});
-  b.max_step_m = node.getDouble("max_step_m", b.max_step_m, config::positive());
-  b.max_step_rad =
-      degToRad(node.getDouble("max_step_deg", radToDeg(b.max_step_rad), InRange{1, 180}));
-  b.max_measurement_age_s =
-      node.getDouble("max_measurement_age_s", b.max_measurement_age_s, InRange{0.01, 600});
-  b.max_measurement_lead_s =
-      node.getDouble("max_measurement_lead_s", b.max_measurement_lead_s, InRange{0, 60});
-  b.measurement_sigma_xy_per_m =
-      node.getDouble("measurement_sigma_xy_per_m", b.measurement_sigma_xy_per_m, InRange{0, 10.0});
-  b.measurement_sigma_theta_rad_per_m =
-      degToRad(node.getDouble("measurement_sigma_theta_deg_per_m",
-                              radToDeg(b.measurement_sigma_theta_rad_per_m), InRange{0, 90.0}));
-  b.landmark_min_interval_s =
-      node.getDouble("landmark_min_interval_s", b.landmark_min_interval_s, InRange{0, 60});
-  if (node.has("map_prior_file") && !node.getString("map_prior_file", true).empty())
-    p.map_prior_file = node.getPath("map_prior_file", true);
-  p.map_prior_sigma_xy_m =
-      node.getDouble("map_prior_sigma_xy_m", p.map_prior_sigma_xy_m, InRange{1e-4, 10.0});
-  p.map_prior_sigma_theta_rad = degToRad(node.getDouble(
-      "map_prior_sigma_theta_deg", radToDeg(p.map_prior_sigma_theta_rad), InRange{1e-3, 90.0}));
-  const std::string start = node.getString("map_prior_start", "origin");
-  if (start != "origin" && start != "unknown")
-    throw node.error("map_prior_start", "expected origin or unknown, not '" + start + "'");
-  p.map_prior_unknown_start = start == "unknown";
-  p.map_rate_hz = node.getDouble("map_rate_hz", p.map_rate_hz, InRange{0, 100});
-  p.particles_rate_hz = node.getDouble("particles_rate_hz", p.particles_rate_hz, InRange{0, 100});
-  p.odometry_timeout_s =
-      node.getDouble("odometry_timeout_s", p.odometry_timeout_s, InRange{0.05, 3600});
-
   rejectInstancePrefilter(node);
+  BackendStageParams p;
+  table().load(node, p);
+  backend::BackendParams& b = p.backend;
   b.prefilter = prefilter;
-  if (node.has("mixture")) loadMixture(node.child("mixture"), f.mixture);
-  if (node.has("outlier")) loadOutlier(node.child("outlier"), f.outlier);
-  if (node.has("kidnap")) loadKidnap(node.child("kidnap"), f.kidnap);
-  if (node.has("odometry_calibration"))
-    loadOdometryCalibration(node.child("odometry_calibration"), b.odometry_calibration);
-  if (node.has("map_correction"))
-    loadMapCorrection(node.child("map_correction"), b.map_correction, f.motion);
+  // The graph's odometry edges take the motion model's noise.
+  b.map_correction.graph.sigma_translation = std::max(b.filter.motion.sigma_translation, 1e-4);
+  b.map_correction.graph.sigma_rotation = std::max(b.filter.motion.sigma_rotation, 1e-4);
   p.odometry_channel = robot.channels.odometry;
   p.landmark_update_channel = robot.channels.landmark_update;
   p.landmark_proposal_channel = robot.channels.landmark_proposal;
@@ -599,10 +702,13 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
 }
 
 void registerBackend(bus::StageRegistry& registry) {
-  registry.add("backend", [](const bus::StageSetup& setup) {
-    return std::make_unique<BackendStage>(
-        BackendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
-  });
+  registry.add(
+      "backend",
+      [](const bus::StageSetup& setup) {
+        return std::make_unique<BackendStage>(
+            BackendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
+      },
+      bus::describeWith(BackendStageParams::table()));
 }
 
 }  // namespace vslam::stages

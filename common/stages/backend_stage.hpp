@@ -52,12 +52,14 @@ struct BackendStageParams {
   // (the earlier run's start pose). Empty: start with an empty map.
   std::filesystem::path map_prior_file;
   double map_prior_sigma_xy_m = 0.05;
-  double map_prior_sigma_theta_rad = 0.0175;
+  double map_prior_sigma_theta_rad = 1.0 * M_PI / 180;
   // Where the robot starts in the map prior: at its origin (the pose of the
   // run that built it), or unknown, relocalized globally from the first
   // measurements (all dual particles until confirmed).
   bool map_prior_unknown_start = false;
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<BackendStageParams>& table();
   // `prefilter`: the stack's (loadPrefilter in stages/prefilter_config.hpp).
   static BackendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot,
                                  const backend::PrefilterParams& prefilter);

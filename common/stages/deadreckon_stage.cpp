@@ -6,13 +6,31 @@
 
 namespace vslam::stages {
 
+const config::ParamTable<DeadReckonParams>& DeadReckonParams::table() {
+  static const config::ParamTable<DeadReckonParams> declared = [] {
+    config::ParamTable<DeadReckonParams> t;
+    t.add(
+         "sigma_translation", [](auto& p) -> auto& { return p.noise.sigma_translation; },
+         config::nonNegative(), "m/√m", "σ_T: translation noise, variance σ_T²·distance")
+        .required()
+        .add(
+            "sigma_rotation", [](auto& p) -> auto& { return p.noise.sigma_rotation; },
+            config::nonNegative(), "rad/√(m or rad)",
+            "σ_R: heading noise, variance σ_R²·(distance + rotation)")
+        .required()
+        .add("max_step_m", &DeadReckonParams::max_step_m, config::positive(), "m",
+             "larger jumps between two readings are faults: reference reset, no motion")
+        .add("max_step_deg", &DeadReckonParams::max_step_deg, config::InRange{1, 180}, "deg",
+             "same for rotation");
+    return t;
+  }();
+  return declared;
+}
+
 DeadReckonParams DeadReckonParams::load(const config::ConfigNode& node,
                                         const config::RobotConfig& robot) {
   DeadReckonParams p;
-  p.noise.sigma_translation = node.getDouble("sigma_translation", config::nonNegative());
-  p.noise.sigma_rotation = node.getDouble("sigma_rotation", config::nonNegative());
-  p.max_step_m = node.getDouble("max_step_m", p.max_step_m, config::positive());
-  p.max_step_deg = node.getDouble("max_step_deg", p.max_step_deg, config::InRange{1, 180});
+  table().load(node, p);
   p.odometry_channel = robot.channels.odometry;
   p.pose_channel = robot.channels.pose_odometry;
   return p;
@@ -83,10 +101,13 @@ void DeadReckonStage::collectHealth(bus::HealthReport& report) {
 }
 
 void registerDeadReckon(bus::StageRegistry& registry) {
-  registry.add("deadreckon", [](const bus::StageSetup& setup) {
-    return std::make_unique<DeadReckonStage>(
-        DeadReckonParams::load(setup.params, setup.stack.robot));
-  });
+  registry.add(
+      "deadreckon",
+      [](const bus::StageSetup& setup) {
+        return std::make_unique<DeadReckonStage>(
+            DeadReckonParams::load(setup.params, setup.stack.robot));
+      },
+      bus::describeWith(DeadReckonParams::table()));
 }
 
 }  // namespace vslam::stages

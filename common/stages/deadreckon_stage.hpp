@@ -19,6 +19,8 @@ struct DeadReckonParams {
   double max_step_m = 1.0;  // larger jumps between readings are faults, not motion
   double max_step_deg = 90.0;
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<DeadReckonParams>& table();
   static DeadReckonParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
 

@@ -51,48 +51,85 @@ std::string checkLandmarkMessage(const vslam::landmark_t& l) {
   return "";
 }
 
+const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
+  using P = FrontendStageParams;
+  using config::InRange;
+  static const config::ParamTable<P> declared = [] {
+    config::ParamTable<P> t;
+    t.add("camera", &P::camera_name,
+          "camera name in the robot file; its image channel, intrinsics and extrinsics are used")
+        .required()
+        .add(
+            "creation_baseline_m", [](auto& p) -> auto& { return p.frontend.creation_baseline_m; },
+            InRange{0.02, 2.0}, "m", "odometry travel between the three views of a new landmark")
+        .add(
+            "coverage_radius_m", [](auto& p) -> auto& { return p.frontend.coverage_radius_m; },
+            InRange{0, 100}, "m",
+            "a landmark covers its place (no new one is made there) only when measured within "
+            "this distance of its creation pose; 0: at any distance")
+        .add(
+            "max_measurements_per_frame",
+            [](auto& p) -> auto& { return p.frontend.max_measurements_per_frame; }, InRange{1, 100},
+            "", "recognized landmarks measured per frame, most matches first")
+        .add(
+            "sift_max_features", [](auto& p) -> auto& { return p.frontend.sift.nfeatures; },
+            InRange{0, 100000}, "", "keep the N strongest SIFT features (0 = all)")
+        .add(
+            "dim_frame_gain_target",
+            [](auto& p) -> auto& { return p.frontend.sift.gain_target_level; }, InRange{0, 255},
+            "grey level",
+            "a frame whose 99th-percentile level is below this is scaled up to it before SIFT "
+            "(0: off)")
+        .add(
+            "dim_frame_max_gain", [](auto& p) -> auto& { return p.frontend.sift.max_gain; },
+            InRange{1, 64}, "", "at most this gain")
+        .add(
+            "match_ratio", [](auto& p) -> auto& { return p.frontend.recognition.ratio; },
+            InRange{0.1, 1.0}, "", "Lowe's ratio test, for recognition and landmark creation")
+        .add(
+            "min_matches", [](auto& p) -> auto& { return p.frontend.recognition.min_matches; },
+            InRange{4, 1000}, "", "matches for a landmark to be measured")
+        .choice("landmark_db", &P::use_landmark_db,
+                std::vector<std::pair<std::string, bool>>{{"required", true}, {"none", false}},
+                "`required`: the landmark DB owns the landmarks (proposals, global ids, a replica "
+                "for recognition); `none`: no DB, each front-end numbers its own landmarks "
+                "camera_number x 10^9 + n and adds the other front-ends' proposals (nothing "
+                "persists)")
+        .required()
+        .add("proposal_timeout_s", &P::proposal_timeout_s, InRange{0.1, 600}, "s",
+             "an unanswered proposal is sent again after this (the DB restarted, or a message was "
+             "lost)");
+    return t;
+  }();
+  return declared;
+}
+
 FrontendStageParams FrontendStageParams::load(const config::ConfigNode& node,
                                               const config::RobotConfig& robot,
                                               const frontend::PrefilterParams& prefilter) {
-  FrontendStageParams p;
-  frontend::FrontendParams& f = p.frontend;
   rejectInstancePrefilter(node);
+  FrontendStageParams p;
+  table().load(node, p);
+  frontend::FrontendParams& f = p.frontend;
   f.prefilter = prefilter;
-  const std::string camera = node.getString("camera");
+  f.creation.match.ratio = f.recognition.ratio;
   bool found = false;
   for (size_t i = 0; i < robot.cameras.size(); ++i) {
-    if (robot.cameras[i].name == camera) {
+    if (robot.cameras[i].name == p.camera_name) {
       f.camera = robot.cameras[i];
       p.camera_number = static_cast<int>(i) + 1;
       found = true;
     }
   }
-  if (!found) throw node.error("camera", "no camera '" + camera + "' in " + robot.file.string());
+  if (!found) {
+    throw node.error("camera", "no camera '" + p.camera_name + "' in " + robot.file.string());
+  }
   p.odometry_channel = robot.channels.odometry;
   p.measurement_channel = robot.channels.visual_measurement;
   p.proposal_channel = robot.channels.landmark_proposal;
   p.update_channel = robot.channels.landmark_update;
   p.summary_channel = robot.channels.landmark_summary;
   p.request_channel = robot.channels.landmark_request;
-  p.use_landmark_db = node.getEnum("landmark_db", {"required", "none"}) == "required";
-  p.proposal_timeout_s =
-      node.getDouble("proposal_timeout_s", p.proposal_timeout_s, config::InRange{0.1, 600});
-  f.creation_baseline_m =
-      node.getDouble("creation_baseline_m", f.creation_baseline_m, config::InRange{0.02, 2.0});
-  f.coverage_radius_m =
-      node.getDouble("coverage_radius_m", f.coverage_radius_m, config::InRange{0, 100});
-  f.max_measurements_per_frame = static_cast<int>(node.getInt(
-      "max_measurements_per_frame", f.max_measurements_per_frame, config::InRange{1, 100}));
-  f.sift.nfeatures = static_cast<int>(
-      node.getInt("sift_max_features", f.sift.nfeatures, config::InRange{0, 100000}));
-  f.sift.gain_target_level =
-      node.getDouble("dim_frame_gain_target", f.sift.gain_target_level, config::InRange{0, 255});
-  f.sift.max_gain = node.getDouble("dim_frame_max_gain", f.sift.max_gain, config::InRange{1, 64});
-  f.recognition.ratio =
-      node.getDouble("match_ratio", f.recognition.ratio, config::InRange{0.1, 1.0});
-  f.creation.match.ratio = f.recognition.ratio;
-  f.recognition.min_matches = static_cast<int>(
-      node.getInt("min_matches", f.recognition.min_matches, config::InRange{4, 1000}));
   return p;
 }
 
@@ -510,10 +547,13 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
 }
 
 void registerFrontend(bus::StageRegistry& registry) {
-  registry.add("frontend", [](const bus::StageSetup& setup) {
-    return std::make_unique<FrontendStage>(
-        FrontendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
-  });
+  registry.add(
+      "frontend",
+      [](const bus::StageSetup& setup) {
+        return std::make_unique<FrontendStage>(
+            FrontendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
+      },
+      bus::describeWith(FrontendStageParams::table()));
 }
 
 }  // namespace vslam::stages

@@ -50,6 +50,7 @@ namespace vslam::stages {
 
 struct FrontendStageParams {
   frontend::FrontendParams frontend;  // the algorithm (camera, window, SIFT, creation, ...)
+  std::string camera_name;            // the robot file's camera this front-end reads
   int camera_number = 1;              // 1-based index of the camera in the robot file
   std::string odometry_channel;
   std::string measurement_channel;
@@ -58,6 +59,8 @@ struct FrontendStageParams {
   bool use_landmark_db = true;      // landmark_db: required (true) | none
   double proposal_timeout_s = 2.0;  // unanswered proposals are sent again after this
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<FrontendStageParams>& table();
   // The pre-filter is the stack's (loadPrefilter in stages/prefilter_config.hpp):
   // here to decide whether a place needs a landmark.
   static FrontendStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot,

@@ -75,20 +75,39 @@ std::string toStructure(const vslam::landmark_t& l, landmark_db::LandmarkStructu
 
 }  // namespace
 
+const config::ParamTable<LandmarkDbParams>& LandmarkDbParams::table() {
+  using P = LandmarkDbParams;
+  using config::InRange;
+  static const config::ParamTable<P> declared = [] {
+    config::ParamTable<P> t;
+    t.path("map_file", &P::map_file, false,
+           "the map file, relative to the config file (`\"\"`: in memory, nothing persists); "
+           "created if missing; a foreign or damaged file stops the process (exit 1) and is left "
+           "untouched")
+        .required()
+        .add("summary_period_s", &P::summary_period_s, InRange{0.05, 3600}, "s",
+             "LANDMARK_SUMMARY period")
+        .required()
+        .add("flush_period_s", &P::flush_period_s, InRange{0.05, 3600}, "s",
+             "statistics are written (and OP_UPDATED published) at most this often")
+        .required()
+        .add("max_map_file_mb", &P::max_map_file_mb, InRange{0, 1e7}, "MiB",
+             "the map file stops growing at this size (0: no limit); a proposal that no longer "
+             "fits is answered OP_REJECTED, as on a full disk, and health is ERROR")
+        .add("min_free_disk_mb", &P::min_free_disk_mb, InRange{0, 1e7}, "MiB",
+             "less free space than this on the map file's filesystem warns in health "
+             "(`disk_free_mb`), also right after a restart on a full disk")
+        .merge(&P::db, landmark_db::databaseParamTable());
+    return t;
+  }();
+  return declared;
+}
+
 LandmarkDbParams LandmarkDbParams::load(const config::ConfigNode& node,
                                         const config::RobotConfig& robot) {
-  using config::InRange;
   LandmarkDbParams p;
-  const std::string file = node.getString("map_file", true);
-  if (!file.empty()) p.map_file = node.getPath("map_file", false);
-  p.db = landmark_db::loadDatabaseParams(node, robot);
-  p.summary_period_s = node.getDouble("summary_period_s", InRange{0.05, 3600});
-  p.flush_period_s = node.getDouble("flush_period_s", InRange{0.05, 3600});
-  const config::ConfigNode prune = node.child("prune");
-  p.prune_enabled = prune.getBool("enabled");
-  p.prune_period_s = prune.getDouble("period_s", InRange{1, 1e6});
-  p.max_map_file_mb = node.getDouble("max_map_file_mb", p.max_map_file_mb, InRange{0, 1e7});
-  p.min_free_disk_mb = node.getDouble("min_free_disk_mb", p.min_free_disk_mb, InRange{0, 1e7});
+  table().load(node, p);
+  landmark_db::setCameraHeadings(robot, p.db);
   const auto& ch = robot.channels;
   p.proposal_channel = ch.landmark_proposal;
   p.update_channel = ch.landmark_update;
@@ -424,12 +443,12 @@ void LandmarkDbStage::onTimer(Utime now) {
       publish(db_->flush(), now);
       next_flush_ = now + periodUs(params_.flush_period_s);
     }
-    if (params_.prune_enabled && now >= next_prune_) {
+    if (params_.db.prune.enabled && now >= next_prune_) {
       if (next_prune_ != 0) {
         // Ages in robot time: the newest time seen on the bus (replay: the log's).
         publish(db_->prune(std::max(last_time_, now)), now);
       }
-      next_prune_ = now + periodUs(params_.prune_period_s);
+      next_prune_ = now + periodUs(params_.db.prune.period_s);
     }
   } catch (const std::exception& e) {
     ++stats_.store_errors;
@@ -530,10 +549,13 @@ void LandmarkDbStage::collectHealth(bus::HealthReport& report) {
 }
 
 void registerLandmarkDb(bus::StageRegistry& registry) {
-  registry.add("landmark_db", [](const bus::StageSetup& setup) {
-    return std::make_unique<LandmarkDbStage>(
-        LandmarkDbParams::load(setup.params, setup.stack.robot), setup.instance);
-  });
+  registry.add(
+      "landmark_db",
+      [](const bus::StageSetup& setup) {
+        return std::make_unique<LandmarkDbStage>(
+            LandmarkDbParams::load(setup.params, setup.stack.robot), setup.instance);
+      },
+      bus::describeWith(LandmarkDbParams::table()));
 }
 
 }  // namespace vslam::stages

@@ -39,8 +39,6 @@ struct LandmarkDbParams {
   landmark_db::DatabaseParams db;
   double summary_period_s = 1.0;
   double flush_period_s = 1.0;
-  bool prune_enabled = true;
-  double prune_period_s = 30;
   double max_map_file_mb = 0;  // the map file stops growing here (0: no limit)
   // Less free space than this on the map file's filesystem warns in health:
   // new landmarks will soon not be stored.
@@ -48,6 +46,8 @@ struct LandmarkDbParams {
   std::string proposal_channel, update_channel, summary_channel, request_channel;
   std::string measurement_channel, filtered_channel, map_channel, pose_channel;
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<LandmarkDbParams>& table();
   static LandmarkDbParams load(const config::ConfigNode& node, const config::RobotConfig& robot);
 };
 

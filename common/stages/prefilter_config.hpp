@@ -13,9 +13,13 @@
 // backend::PrefilterParams.
 
 #include "backend/prefilter.hpp"
+#include "config/param_table.hpp"
 #include "config/stack_config.hpp"
 
 namespace vslam::stages {
+
+// The block's keys, declared once (config/param_table.hpp).
+const config::ParamTable<backend::PrefilterParams>& prefilterParamTable();
 
 // ConfigError for a bad or unknown key of the block.
 backend::PrefilterParams loadPrefilter(const config::StackConfig& stack);
