@@ -61,6 +61,17 @@ std::string valueText(const T& value) {
   return os.str();
 }
 
+template <class T>
+struct IsOptional : std::false_type {};
+template <class T>
+struct IsOptional<std::optional<T>> : std::true_type {};
+
+// An optional value: "unset" when it has none.
+template <class T>
+std::string valueText(const std::optional<T>& value) {
+  return value ? valueText(*value) : "unset";
+}
+
 // Markdown table: key, unit, default, range, meaning, and a column of the
 // configured values if any row has one (`configured_header` names it).
 std::string markdownTable(const std::vector<ParamDoc>& rows,
@@ -76,17 +87,16 @@ class ParamTable {
   template <class Field>
   ParamTable& add(std::string key, Field field, InRange range, std::string unit,
                   std::string meaning) {
-    using T = std::decay_t<decltype(std::invoke(field, std::declval<S&>()))>;
-    static_assert(std::is_arithmetic_v<T>, "a range only fits a number");
+    using Stored = std::decay_t<decltype(std::invoke(field, std::declval<S&>()))>;
     Entry e = entry(std::move(key), std::move(unit), std::move(meaning));
     e.range = rangeText(range);
     e.read = [field, range](const ConfigNode& node, const std::string& k, S& s, bool required) {
-      T& v = std::invoke(field, s);
-      if constexpr (std::is_floating_point_v<T>) {
-        v = required ? node.getDouble(k, range) : node.getDouble(k, v, range);
+      Stored& v = std::invoke(field, s);
+      if constexpr (IsOptional<Stored>::value) {
+        // Left out: no value (the device's own, say); given: checked as any number.
+        if (node.has(k)) v = readNumber<typename Stored::value_type>(node, k, range, nullptr);
       } else {
-        v = static_cast<T>(required ? node.getInt(k, range)
-                                    : node.getInt(k, static_cast<int64_t>(v), range));
+        v = readNumber<Stored>(node, k, range, required ? nullptr : &v);
       }
     };
     e.show = [field](const S& s) { return valueText(std::invoke(field, s)); };
@@ -98,13 +108,15 @@ class ParamTable {
   template <class Field>
   ParamTable& add(std::string key, Field field, std::string meaning) {
     using T = std::decay_t<decltype(std::invoke(field, std::declval<S&>()))>;
-    static_assert(std::is_same_v<T, bool> || std::is_same_v<T, std::string> ||
-                      std::is_same_v<T, std::vector<std::string>>,
+    static_assert(std::is_same_v<T, bool> || std::is_same_v<T, std::optional<bool>> ||
+                      std::is_same_v<T, std::string> || std::is_same_v<T, std::vector<std::string>>,
                   "numbers take a range");
     Entry e = entry(std::move(key), "", std::move(meaning));
     e.read = [field](const ConfigNode& node, const std::string& k, S& s, bool required) {
       T& v = std::invoke(field, s);
-      if constexpr (std::is_same_v<T, bool>) {
+      if constexpr (std::is_same_v<T, std::optional<bool>>) {
+        if (node.has(k)) v = node.getBool(k);
+      } else if constexpr (std::is_same_v<T, bool>) {
         v = required ? node.getBool(k) : node.getBool(k, v);
       } else if constexpr (std::is_same_v<T, std::string>) {
         v = required ? node.getString(k) : node.getString(k, v);
@@ -181,6 +193,22 @@ class ParamTable {
     };
     e.show = [field](const S& s) { return valueText(std::invoke(field, s)); };
     e.as_written = true;  // resolved, it would name this machine's directories
+    entries_.push_back(std::move(e));
+    return *this;
+  }
+
+  // A key read and written by the caller's own functions, for a value no
+  // kind above fits (a parsed specification, a value checked against others).
+  // `read(node, key, s)` is called whether or not the key is present.
+  ParamTable& custom(std::string key, std::string unit, std::string meaning,
+                     std::function<void(const ConfigNode&, const std::string&, S&)> read,
+                     std::function<std::string(const S&)> show) {
+    Entry e = entry(std::move(key), std::move(unit), std::move(meaning));
+    e.read = [read](const ConfigNode& node, const std::string& k, S& s, bool required) {
+      if (required && !node.has(k)) throw node.error(k, "missing");
+      read(node, k, s);
+    };
+    e.show = std::move(show);
     entries_.push_back(std::move(e));
     return *this;
   }
@@ -284,6 +312,18 @@ class ParamTable {
     std::function<std::vector<ParamDoc>(const S&, const S*, const ConfigNode*, const std::string&)>
         nested;
   };
+  // A number of type T; `fallback` null: required.
+  template <class T>
+  static T readNumber(const ConfigNode& node, const std::string& k, InRange range,
+                      const T* fallback) {
+    static_assert(std::is_arithmetic_v<T>, "a range only fits a number");
+    if constexpr (std::is_floating_point_v<T>) {
+      return fallback ? node.getDouble(k, *fallback, range) : node.getDouble(k, range);
+    } else {
+      return static_cast<T>(fallback ? node.getInt(k, static_cast<int64_t>(*fallback), range)
+                                     : node.getInt(k, range));
+    }
+  }
   static Entry entry(std::string key, std::string unit, std::string meaning) {
     Entry e;
     e.key = std::move(key);

@@ -20,79 +20,140 @@ std::string sizeText(int width, int height) {
 }
 
 // The V4L2 block: capture mode and controls asked of the device.
-capture::V4l2Settings loadV4l2(const config::ConfigNode& node) {
-  capture::V4l2Settings s;
-  s.width = static_cast<int>(node.getInt("width", s.width, config::InRange{0, 16384}));
-  s.height = static_cast<int>(node.getInt("height", s.height, config::InRange{0, 16384}));
-  s.fps = node.getDouble("fps", s.fps, config::InRange{0, 1000});
-  s.fourcc = node.getString("fourcc", s.fourcc);
-  if (!s.fourcc.empty() && s.fourcc.size() != 4) {
-    throw node.error("fourcc", "'" + s.fourcc + "' is not a four-character code (e.g. MJPG)");
-  }
-  if (node.has("auto_exposure")) s.auto_exposure = node.getBool("auto_exposure");
-  if (node.has("exposure")) s.exposure = node.getDouble("exposure", config::nonNegative());
-  if (node.has("gain")) s.gain = node.getDouble("gain", config::nonNegative());
-  node.requireAllKeysUsed();
-  return s;
+config::ParamTable<capture::V4l2Settings> v4l2Table() {
+  using V = capture::V4l2Settings;
+  using config::InRange;
+  config::ParamTable<V> t;
+  t.add("width", &V::width, InRange{0, 16384}, "px",
+        "capture mode asked of the device (`v4l2-ctl --list-formats-ext` lists them); 0: the "
+        "device's")
+      .add("height", &V::height, InRange{0, 16384}, "px", "the same")
+      .add("fps", &V::fps, InRange{0, 1000}, "Hz", "the same; 0: the device's")
+      .add("fourcc", &V::fourcc, "pixel format, e.g. MJPG, YUYV; \"\": the device's")
+      .add("auto_exposure", &V::auto_exposure, "control; unset: as the device is")
+      .add("exposure", &V::exposure, config::nonNegative(), "device units",
+           "control (V4L2 exposure_absolute: 100 µs); unset: as the device is")
+      .add("gain", &V::gain, config::nonNegative(), "device units",
+           "control; unset: as the device is")
+      .check([](const config::ConfigNode& node, const V& v) {
+        if (!v.fourcc.empty() && v.fourcc.size() != 4) {
+          throw node.error("fourcc", "'" + v.fourcc + "' is not a four-character code (e.g. MJPG)");
+        }
+      });
+  return t;
 }
 
 }  // namespace
 
+const config::ParamTable<CameraStageParams>& CameraStageParams::table() {
+  using P = CameraStageParams;
+  using capture::PixelEncoding;
+  using config::InRange;
+  static const config::ParamTable<P> declared = [] {
+    config::ParamTable<P> t;
+    t.add("camera", &P::camera_name, "the robot file's camera (size, calibration, channels)")
+        .required()
+        .add("source", &P::source_text,
+             "`v4l2:DEVICE`, `gstreamer:PIPELINE`, `video:FILE` or `folder:DIR` (docs/camera.md, "
+             "Sources); a relative file is taken from the config file's directory")
+        .required()
+        .block(
+            "v4l2", [](auto& p) -> auto& { return p.source.v4l2; }, v4l2Table())
+        .choice("encoding", &P::encoding,
+                std::vector<std::pair<std::string, PixelEncoding>>{{"gray8", PixelEncoding::kGray8},
+                                                                   {"bgr8", PixelEncoding::kBgr8},
+                                                                   {"jpeg", PixelEncoding::kJpeg}},
+                "`vslam.image_t` encoding (the bus load depends on it)")
+        .required()
+        .add("jpeg_quality", &P::jpeg_quality, InRange{1, 100}, "", "for encoding jpeg")
+        .add(
+            "width", [](auto& p) -> auto& { return p.capture.width; }, InRange{0, 16384}, "px",
+            "resize to this (width and height both or neither); 0: the source's size")
+        .add(
+            "height", [](auto& p) -> auto& { return p.capture.height; }, InRange{0, 16384}, "px",
+            "the same")
+        .add(
+            "max_fps", [](auto& p) -> auto& { return p.capture.max_fps; }, InRange{0, 1000}, "Hz",
+            "frames closer than 0.9 / max_fps to the previous one are dropped (`dropped_rate`); "
+            "0: none")
+        .custom(
+            "alternate", "",
+            "`{slot: K, slots: N}`: take turns with N - 1 other cameras, one frame per N / "
+            "`max_fps` period, in slot K (docs/camera.md, Alternating acquisition; needs "
+            "`max_fps`)",
+            [](const config::ConfigNode& node, const std::string& key, P& p) {
+              if (node.has(key) && p.capture.max_fps <= 0) {
+                throw node.error(key,
+                                 "needs max_fps > 0: the cameras taking turns share that rate");
+              }
+              p.capture.alternate = config::readAlternation(node, key, p.capture.max_fps);
+            },
+            [](const P& p) {
+              const Alternation& a = p.capture.alternate;
+              return a.active() ? "{slot: " + std::to_string(a.slot) +
+                                      ", slots: " + std::to_string(a.slots) + "}"
+                                : std::string("none");
+            })
+        .add(
+            "speed", [](auto& p) -> auto& { return p.capture.speed; }, InRange{0, 1000}, "x",
+            "recordings only: multiple of real time; 0: as fast as they decode")
+        .add(
+            "loop", [](auto& p) -> auto& { return p.capture.loop; },
+            "recordings only: start again at the end")
+        .add(
+            "reopen_initial_s", [](auto& p) -> auto& { return p.capture.reopen_initial_s; },
+            InRange{0.001, 60}, "s", "first wait before reopening a lost source...")
+        .add(
+            "reopen_max_s", [](auto& p) -> auto& { return p.capture.reopen_max_s; },
+            InRange{0.001, 3600}, "s", "...doubling up to this")
+        .add(
+            "max_consecutive_errors",
+            [](auto& p) -> auto& { return p.capture.max_consecutive_errors; }, InRange{1, 1000}, "",
+            "read errors in a row that mean the source is gone")
+        .add("calibration_period_s", &P::calibration_period_s, InRange{0.1, 60}, "s",
+             "between calibration messages")
+        .check([](const config::ConfigNode& node, const P& p) {
+          const capture::CameraParams& c = p.capture;
+          if ((c.width == 0) != (c.height == 0)) {
+            throw node.error(c.width == 0 ? "width" : "height",
+                             "give both width and height, or neither");
+          }
+        });
+    return t;
+  }();
+  return declared;
+}
+
 CameraStageParams CameraStageParams::load(const config::ConfigNode& node,
                                           const config::RobotConfig& robot) {
   CameraStageParams p;
-  const std::string name = node.getString("camera");
+  table().load(node, p);
   try {
-    p.camera = robot.camera(name);
+    p.camera = robot.camera(p.camera_name);
   } catch (const std::out_of_range&) {
     std::string known;
     for (const auto& c : robot.cameras) known += (known.empty() ? "" : ", ") + c.name;
-    throw node.error("camera", "no camera '" + name + "' in " + robot.file.string() +
+    throw node.error("camera", "no camera '" + p.camera_name + "' in " + robot.file.string() +
                                    " (it has: " + known + ")");
   }
+  const capture::V4l2Settings v4l2 = p.source.v4l2;  // the block, read by the table
   try {
-    p.source = capture::SourceSpec::parse(node.getString("source"));
+    p.source = capture::SourceSpec::parse(p.source_text);
   } catch (const capture::SourceError& e) {
     throw node.error("source", e.what());
   }
+  p.source.v4l2 = v4l2;
   if (p.source.isReplay() && std::filesystem::path(p.source.location).is_relative()) {
     p.source.location = (node.baseDir() / p.source.location).lexically_normal().string();
   }
-  if (node.has("v4l2")) {
-    if (p.source.kind != capture::SourceSpec::Kind::kV4l2) {
-      throw node.error("v4l2", "device settings need a v4l2: source");
-    }
-    p.source.v4l2 = loadV4l2(node.child("v4l2"));
+  if (node.has("v4l2") && p.source.kind != capture::SourceSpec::Kind::kV4l2) {
+    throw node.error("v4l2", "device settings need a v4l2: source");
   }
-  p.encoding = capture::parsePixelEncoding(
-      node.getEnum("encoding", {"gray8", "bgr8", "jpeg"}));  // required: the bus load depends on it
-  p.jpeg_quality =
-      static_cast<int>(node.getInt("jpeg_quality", p.jpeg_quality, config::InRange{1, 100}));
-  capture::CameraParams& c = p.capture;
-  c.width = static_cast<int>(node.getInt("width", c.width, config::InRange{0, 16384}));
-  c.height = static_cast<int>(node.getInt("height", c.height, config::InRange{0, 16384}));
-  if ((c.width == 0) != (c.height == 0)) {
-    throw node.error(c.width == 0 ? "width" : "height", "give both width and height, or neither");
-  }
-  c.max_fps = node.getDouble("max_fps", c.max_fps, config::InRange{0, 1000});
-  if (node.has("alternate") && c.max_fps <= 0) {
-    throw node.error("alternate", "needs max_fps > 0: the cameras taking turns share that rate");
-  }
-  c.alternate = config::readAlternation(node, "alternate", c.max_fps);
-  c.speed = node.getDouble("speed", c.speed, config::InRange{0, 1000});
-  c.loop = node.getBool("loop", c.loop);
   if (!p.source.isReplay()) {
     for (const char* key : {"speed", "loop"}) {
       if (node.has(key)) throw node.error(key, "only for video: and folder: sources");
     }
   }
-  c.reopen_initial_s =
-      node.getDouble("reopen_initial_s", c.reopen_initial_s, config::InRange{0.001, 60});
-  c.reopen_max_s = node.getDouble("reopen_max_s", c.reopen_max_s, config::InRange{0.001, 3600});
-  c.max_consecutive_errors = static_cast<int>(
-      node.getInt("max_consecutive_errors", c.max_consecutive_errors, config::InRange{1, 1000}));
-  p.calibration_period_s =
-      node.getDouble("calibration_period_s", p.calibration_period_s, config::InRange{0.1, 60});
   return p;
 }
 
@@ -201,40 +262,43 @@ void CameraStage::stop() {
 }
 
 void registerCamera(bus::StageRegistry& registry) {
-  registry.add("camera", [](const bus::StageSetup& setup) {
-    CameraStageParams p = CameraStageParams::load(setup.params, setup.stack.robot);
-    setup.params.requireAllKeysUsed();  // a misspelt key before a device or file is opened
-    std::unique_ptr<capture::FrameSource> source;
-    try {
-      source = capture::openSource(p.source);
-    } catch (const capture::SourceError& e) {
-      throw setup.params.error(e.setting(), e.what());
-    }
-    // What the front-ends will get must be what the robot file calibrates.
-    const bool resized = p.capture.width > 0;
-    const cv::Size size =
-        resized ? cv::Size(p.capture.width, p.capture.height) : source->nativeSize();
-    if (size.width > 0 && (size.width != p.camera.width || size.height != p.camera.height)) {
-      std::string hint;
-      if (!resized && size.width * p.camera.height == size.height * p.camera.width) {
-        hint = "; set width: " + std::to_string(p.camera.width) +
-               " and height: " + std::to_string(p.camera.height) + " to resize";
-      } else if (size.width * p.camera.height == size.height * p.camera.width) {
-        const config::CameraConfig scaled =
-            capture::rescaleIntrinsics(p.camera, size.width, size.height);
-        hint = "; for " + sizeText(size.width, size.height) + " the calibration would be fx " +
-               std::to_string(scaled.fx) + " fy " + std::to_string(scaled.fy) + " cx " +
-               std::to_string(scaled.cx) + " cy " + std::to_string(scaled.cy);
-      }
-      throw setup.params.error(resized ? "width" : "source",
-                               (resized ? "resized to " : "the source gives ") +
-                                   sizeText(size.width, size.height) + ", but camera '" +
-                                   p.camera.name + "' is calibrated for " +
-                                   sizeText(p.camera.width, p.camera.height) + " (" +
-                                   p.camera.calibration_file.string() + ")" + hint);
-    }
-    return std::make_unique<CameraStage>(std::move(p), std::move(source));
-  });
+  registry.add(
+      "camera",
+      [](const bus::StageSetup& setup) {
+        CameraStageParams p = CameraStageParams::load(setup.params, setup.stack.robot);
+        setup.params.requireAllKeysUsed();  // a misspelt key before a device or file is opened
+        std::unique_ptr<capture::FrameSource> source;
+        try {
+          source = capture::openSource(p.source);
+        } catch (const capture::SourceError& e) {
+          throw setup.params.error(e.setting(), e.what());
+        }
+        // What the front-ends will get must be what the robot file calibrates.
+        const bool resized = p.capture.width > 0;
+        const cv::Size size =
+            resized ? cv::Size(p.capture.width, p.capture.height) : source->nativeSize();
+        if (size.width > 0 && (size.width != p.camera.width || size.height != p.camera.height)) {
+          std::string hint;
+          if (!resized && size.width * p.camera.height == size.height * p.camera.width) {
+            hint = "; set width: " + std::to_string(p.camera.width) +
+                   " and height: " + std::to_string(p.camera.height) + " to resize";
+          } else if (size.width * p.camera.height == size.height * p.camera.width) {
+            const config::CameraConfig scaled =
+                capture::rescaleIntrinsics(p.camera, size.width, size.height);
+            hint = "; for " + sizeText(size.width, size.height) + " the calibration would be fx " +
+                   std::to_string(scaled.fx) + " fy " + std::to_string(scaled.fy) + " cx " +
+                   std::to_string(scaled.cx) + " cy " + std::to_string(scaled.cy);
+          }
+          throw setup.params.error(resized ? "width" : "source",
+                                   (resized ? "resized to " : "the source gives ") +
+                                       sizeText(size.width, size.height) + ", but camera '" +
+                                       p.camera.name + "' is calibrated for " +
+                                       sizeText(p.camera.width, p.camera.height) + " (" +
+                                       p.camera.calibration_file.string() + ")" + hint);
+        }
+        return std::make_unique<CameraStage>(std::move(p), std::move(source));
+      },
+      bus::describeWith(CameraStageParams::table()));
 }
 
 }  // namespace vslam::stages

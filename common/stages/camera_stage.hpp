@@ -17,13 +17,17 @@
 namespace vslam::stages {
 
 struct CameraStageParams {
-  config::CameraConfig camera;  // from the robot file, by `camera`
-  capture::SourceSpec source;
+  std::string camera_name;      // the robot file's camera...
+  config::CameraConfig camera;  // ...as the robot file describes it
+  std::string source_text;      // as configured, e.g. "v4l2:/dev/video0"...
+  capture::SourceSpec source;   // ...parsed
   capture::CameraParams capture;
   capture::PixelEncoding encoding = capture::PixelEncoding::kGray8;
   int jpeg_quality = 90;              // 1-100, for encoding jpeg
   double calibration_period_s = 1.0;  // between calibration messages
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<CameraStageParams>& table();
   // Reads the block; a relative video or folder path is taken from the
   // config file's directory. Throws config::ConfigError naming the key.
   static CameraStageParams load(const config::ConfigNode& node, const config::RobotConfig& robot);

@@ -9,65 +9,102 @@ using odometry_bridge::LineResult;
 using odometry_bridge::LineSource;
 using odometry_bridge::SourceKind;
 
+const config::ParamTable<OdometryBridgeParams>& OdometryBridgeParams::table() {
+  using P = OdometryBridgeParams;
+  using config::InRange;
+  using odometry_bridge::TimestampMode;
+  static const config::ParamTable<P> declared = [] {
+    config::ParamTable<P> t;
+    // Keys of the other sources and formats may stay in the block (switching
+    // is one edit); the chosen one's own are checked below.
+    t.choice(
+         "source", [](auto& p) -> auto& { return p.source.kind; },
+         std::vector<std::pair<std::string, SourceKind>>{{"stdin", SourceKind::kStdin},
+                                                         {"serial", SourceKind::kSerial},
+                                                         {"udp", SourceKind::kUdp}},
+         "where the lines come from")
+        .required()
+        .add(
+            "serial_device", [](auto& p) -> auto& { return p.source.serial_device; },
+            "device path (required for `serial`)")
+        .add(
+            "baud", [](auto& p) -> auto& { return p.source.baud; }, InRange{1, 4000000}, "",
+            "serial rate")
+        .add(
+            "udp_port", [](auto& p) -> auto& { return p.source.udp_port; }, InRange{0, 65535}, "",
+            "port on 127.0.0.1 (required for `udp`)")
+        .choice(
+            "format", [](auto& p) -> auto& { return p.bridge.format; },
+            std::vector<std::pair<std::string, LineFormat>>{{"pose", LineFormat::kPose},
+                                                            {"ticks", LineFormat::kTicks}},
+            "`pose`: t x y theta; `ticks`: t left_ticks right_ticks")
+        .required()
+        .choice(
+            "timestamps", [](auto& p) -> auto& { return p.bridge.timestamps; },
+            std::vector<std::pair<std::string, TimestampMode>>{
+                {"relative", TimestampMode::kRelative},
+                {"absolute", TimestampMode::kAbsolute},
+                {"host", TimestampMode::kHost}},
+            "how a line's t becomes the message's time (above)")
+        .add(
+            "ticks_per_rev", [](auto& p) -> auto& { return p.bridge.drive.ticks_per_rev; },
+            config::nonNegative(), "ticks",
+            "encoder ticks per wheel revolution (required for `ticks`)")
+        .add(
+            "wheel_radius_m", [](auto& p) -> auto& { return p.bridge.drive.wheel_radius_m; },
+            config::nonNegative(), "m", "wheel radius (required for `ticks`)")
+        .add(
+            "track_width_m", [](auto& p) -> auto& { return p.bridge.drive.track_width_m; },
+            config::nonNegative(), "m", "distance between the wheels (required for `ticks`)")
+        .add(
+            "counter_bits", [](auto& p) -> auto& { return p.bridge.drive.counter_bits; },
+            InRange{odometry_bridge::kMinCounterBits, odometry_bridge::kMaxCounterBits}, "bits",
+            "encoder counter width")
+        .add(
+            "max_step_m", [](auto& p) -> auto& { return p.bridge.max_step_m; }, config::positive(),
+            "m", "larger steps between lines are rejected")
+        .add(
+            "max_step_deg", [](auto& p) -> auto& { return p.bridge.max_step_deg; },
+            InRange{1e-3, 180}, "deg", "likewise for rotation")
+        .add(
+            "resync_after", [](auto& p) -> auto& { return p.bridge.resync_after; },
+            InRange{2, 1000}, "lines", "agreeing rejected lines that mean the source restarted")
+        .add("line_timeout_s", &P::line_timeout_s, InRange{0.01, 3600}, "s",
+             "health warns after this long without a line")
+        .add("reopen_period_s", &P::reopen_period_s, InRange{0.01, 3600}, "s",
+             "a serial device that went away is retried this often")
+        .check([](const config::ConfigNode& node, const P& p) {
+          if (!odometry_bridge::isSupportedBaud(p.source.baud)) {
+            throw node.error("baud", "unsupported rate " + std::to_string(p.source.baud) +
+                                         "; one of 9600 19200 38400 57600 115200 230400 460800 "
+                                         "921600");
+          }
+          if (p.source.kind == SourceKind::kSerial && p.source.serial_device.empty()) {
+            throw node.error("serial_device",
+                             "missing (source: serial needs the device, e.g. /dev/ttyUSB0)");
+          }
+          if (p.source.kind == SourceKind::kUdp && p.source.udp_port == 0) {
+            throw node.error("udp_port", "missing (source: udp needs a port in 1..65535)");
+          }
+          if (p.bridge.format != LineFormat::kTicks) return;
+          const auto& drive = p.bridge.drive;
+          for (const auto& [key, value] :
+               {std::pair<const char*, double>{"ticks_per_rev", drive.ticks_per_rev},
+                {"wheel_radius_m", drive.wheel_radius_m},
+                {"track_width_m", drive.track_width_m}}) {
+            if (!(value > 0)) throw node.error(key, "format: ticks needs it > 0");
+          }
+        });
+    return t;
+  }();
+  return declared;
+}
+
 OdometryBridgeParams OdometryBridgeParams::load(const config::ConfigNode& node,
                                                 const config::RobotConfig& robot) {
-  using config::InRange;
   OdometryBridgeParams p;
+  table().load(node, p);
   p.odometry_channel = robot.channels.odometry;
-
-  const std::string source = node.getEnum("source", {"stdin", "serial", "udp"});
-  p.source.kind = source == "serial" ? SourceKind::kSerial
-                  : source == "udp"  ? SourceKind::kUdp
-                                     : SourceKind::kStdin;
-  // Keys of the other sources may stay in the block (switching source is one
-  // edit); the chosen source's own are required.
-  p.source.serial_device = node.getString("serial_device", p.source.serial_device);
-  p.source.baud = static_cast<int>(node.getInt("baud", p.source.baud, InRange{1, 4000000}));
-  if (!odometry_bridge::isSupportedBaud(p.source.baud)) {
-    throw node.error("baud", "unsupported rate " + std::to_string(p.source.baud) +
-                                 "; one of 9600 19200 38400 57600 115200 230400 460800 921600");
-  }
-  p.source.udp_port =
-      static_cast<int>(node.getInt("udp_port", p.source.udp_port, InRange{0, 65535}));
-  if (p.source.kind == SourceKind::kSerial && p.source.serial_device.empty()) {
-    throw node.error("serial_device",
-                     "missing (source: serial needs the device, e.g. /dev/ttyUSB0)");
-  }
-  if (p.source.kind == SourceKind::kUdp && p.source.udp_port == 0) {
-    throw node.error("udp_port", "missing (source: udp needs a port in 1..65535)");
-  }
-
-  const std::string format = node.getEnum("format", {"pose", "ticks"});
-  p.bridge.format = format == "ticks" ? LineFormat::kTicks : LineFormat::kPose;
-  const std::string timestamps =
-      node.getString("timestamps", odometry_bridge::timestampModeName(p.bridge.timestamps));
-  const auto mode = odometry_bridge::parseTimestampMode(timestamps);
-  if (!mode) {
-    throw node.error("timestamps", "'" + timestamps + "' is not one of relative, absolute, host");
-  }
-  p.bridge.timestamps = *mode;
-  auto& drive = p.bridge.drive;
-  drive.ticks_per_rev = node.getDouble("ticks_per_rev", drive.ticks_per_rev, config::nonNegative());
-  drive.wheel_radius_m =
-      node.getDouble("wheel_radius_m", drive.wheel_radius_m, config::nonNegative());
-  drive.track_width_m = node.getDouble("track_width_m", drive.track_width_m, config::nonNegative());
-  drive.counter_bits = static_cast<int>(
-      node.getInt("counter_bits", drive.counter_bits,
-                  InRange{odometry_bridge::kMinCounterBits, odometry_bridge::kMaxCounterBits}));
-  if (p.bridge.format == LineFormat::kTicks) {
-    for (const auto& [key, value] :
-         {std::pair<const char*, double>{"ticks_per_rev", drive.ticks_per_rev},
-          {"wheel_radius_m", drive.wheel_radius_m},
-          {"track_width_m", drive.track_width_m}}) {
-      if (!(value > 0)) throw node.error(key, "format: ticks needs it > 0");
-    }
-  }
-  p.bridge.max_step_m = node.getDouble("max_step_m", p.bridge.max_step_m, config::positive());
-  p.bridge.max_step_deg = node.getDouble("max_step_deg", p.bridge.max_step_deg, InRange{1e-3, 180});
-  p.bridge.resync_after =
-      static_cast<int>(node.getInt("resync_after", p.bridge.resync_after, InRange{2, 1000}));
-  p.line_timeout_s = node.getDouble("line_timeout_s", p.line_timeout_s, InRange{0.01, 3600});
-  p.reopen_period_s = node.getDouble("reopen_period_s", p.reopen_period_s, InRange{0.01, 3600});
   return p;
 }
 
@@ -221,10 +258,13 @@ void OdometryBridgeStage::collectHealth(bus::HealthReport& report) {
 }
 
 void registerOdometryBridge(bus::StageRegistry& registry) {
-  registry.add("odometry_bridge", [](const bus::StageSetup& setup) {
-    return std::make_unique<OdometryBridgeStage>(
-        OdometryBridgeParams::load(setup.params, setup.stack.robot), setup.params);
-  });
+  registry.add(
+      "odometry_bridge",
+      [](const bus::StageSetup& setup) {
+        return std::make_unique<OdometryBridgeStage>(
+            OdometryBridgeParams::load(setup.params, setup.stack.robot), setup.params);
+      },
+      bus::describeWith(OdometryBridgeParams::table()));
 }
 
 }  // namespace vslam::stages

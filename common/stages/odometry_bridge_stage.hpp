@@ -29,6 +29,8 @@ struct OdometryBridgeParams {
   double line_timeout_s = 1.0;   // health warns when no line arrived for this long
   double reopen_period_s = 1.0;  // a serial device that went away is reopened this often
 
+  // The keys of the block, declared once (config/param_table.hpp).
+  static const config::ParamTable<OdometryBridgeParams>& table();
   static OdometryBridgeParams load(const config::ConfigNode& node,
                                    const config::RobotConfig& robot);
 };

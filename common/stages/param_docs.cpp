@@ -8,10 +8,21 @@
 
 namespace vslam::stages {
 
+namespace {
+
+// The registry of a role: the stack's stages, then the sensor drivers.
+const bus::StageRegistry& registryOf(const std::string& role) {
+  return builtinStages().has(role) ? builtinStages() : driverStages();
+}
+
+}  // namespace
+
 std::vector<std::string> documentedParamBlocks() {
   std::vector<std::string> out{"prefilter"};
-  for (const auto& role : builtinStages().roles()) {
-    if (!builtinStages().describeParams(role).empty()) out.push_back(role);
+  for (const bus::StageRegistry* registry : {&builtinStages(), &driverStages()}) {
+    for (const auto& role : registry->roles()) {
+      if (!registry->describeParams(role).empty()) out.push_back(role);
+    }
   }
   return out;
 }
@@ -32,10 +43,10 @@ std::vector<config::ParamDoc> declaredParams(const std::string& block,
     for (const auto& instance : stack->instances()) {
       if (stack->roleOf(instance) != block) continue;
       const config::ConfigNode node = stack->process(instance);
-      return builtinStages().describeParams(block, &node);
+      return registryOf(block).describeParams(block, &node);
     }
   }
-  return builtinStages().describeParams(block);
+  return registryOf(block).describeParams(block);
 }
 
 namespace {

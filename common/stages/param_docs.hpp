@@ -19,8 +19,8 @@
 
 namespace vslam::stages {
 
-// Every role of builtinStages() that declares its keys, and "prefilter" (the
-// stack's top-level block).
+// Every role of builtinStages() and driverStages() that declares its keys,
+// and "prefilter" (the stack's top-level block).
 std::vector<std::string> documentedParamBlocks();
 
 // The declared keys of a role (or "prefilter"), with their defaults; with a

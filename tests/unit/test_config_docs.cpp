@@ -99,6 +99,9 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"backend.odometry_calibration.enabled", "estimates reported in health (docs/backend.md)"},
       {"frontend.dim_frame_gain_target",
        "dim rooms of generated homes (docs/frontend.md); the library keeps the paper's frames"},
+      {"camera.width", "the robot file's cameras are calibrated at 320x240"},
+      {"camera.height", "as camera.width"},
+      {"camera.max_fps", "the robot file's frame_rate_hz (10)"},
       {"frontend.min_matches",
        "92% of measurements pass the pre-filter on the apartment at 16, 79% at 10 (commit "
        "8b77e34)"},

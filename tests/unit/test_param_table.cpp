@@ -150,3 +150,39 @@ TEST(ParamTable, DescribesDefaultsAndWhatABlockChanges) {
   EXPECT_NE(md.find("| `inner.gain` |  | 2 | [1, 10] | 3 | the inner gain |"), std::string::npos)
       << md;
 }
+
+TEST(ParamTable, OptionalValuesStayUnsetUnlessGivenAndCustomKeysReadTheirOwnWay) {
+  struct Device {
+    std::optional<double> exposure;
+    std::optional<bool> auto_exposure;
+    std::string size_text = "none";
+  };
+  ParamTable<Device> t;
+  t.add("exposure", &Device::exposure, InRange{0, 100}, "", "device units")
+      .add("auto_exposure", &Device::auto_exposure, "control")
+      .custom(
+          "size", "px", "WxH",
+          [](const ConfigNode& node, const std::string& key, Device& d) {
+            if (!node.has(key)) return;
+            const std::string text = node.getString(key);
+            if (text.find('x') == std::string::npos) throw node.error(key, "expected WxH");
+            d.size_text = text;
+          },
+          [](const Device& d) { return d.size_text; });
+  Device left_out;
+  t.load(yaml("{}"), left_out);
+  EXPECT_FALSE(left_out.exposure.has_value());
+  EXPECT_FALSE(left_out.auto_exposure.has_value());
+  Device given;
+  t.load(yaml("exposure: 30\nauto_exposure: false\nsize: 640x480"), given);
+  EXPECT_EQ(given.exposure, 30.0);
+  EXPECT_EQ(given.auto_exposure, false);
+  EXPECT_EQ(given.size_text, "640x480");
+  expectConfigError([&] { t.load(yaml("exposure: 300"), given); }, "exposure", "[0, 100]");
+  expectConfigError([&] { t.load(yaml("size: big"), given); }, "size", "expected WxH");
+  const auto rows = t.describe(Device{}, &given);
+  EXPECT_EQ(row(rows, "exposure").default_value, "unset");
+  EXPECT_EQ(row(rows, "exposure").configured, "30");
+  EXPECT_EQ(row(rows, "size").default_value, "none");
+  EXPECT_EQ(row(rows, "size").configured, "640x480");
+}
