@@ -1,12 +1,11 @@
 #include "bus/lockstep_replay.hpp"
 
-#include <cstdio>
-#include <cstring>
 #include <deque>
 #include <optional>
 #include <set>
 #include <stdexcept>
 
+#include "bus/log_reader.hpp"
 #include "util/log.hpp"
 
 namespace vslam::bus {
@@ -17,25 +16,6 @@ struct OwnedEvent {
   std::string channel;
   std::vector<uint8_t> data;
 };
-
-// Position of the next LCM event sync word (0xEDA1DA01, big-endian) at or
-// after `from`, or -1.
-long findNextSyncWord(FILE* file, long from) {
-  if (from < 0 || std::fseek(file, from, SEEK_SET) != 0) return -1;
-  const unsigned char sync[4] = {0xED, 0xA1, 0xDA, 0x01};
-  unsigned char window[4] = {0, 0, 0, 0};
-  long pos = from;
-  int c;
-  while ((c = std::fgetc(file)) != EOF) {
-    window[0] = window[1];
-    window[1] = window[2];
-    window[2] = window[3];
-    window[3] = static_cast<unsigned char>(c);
-    ++pos;
-    if (pos - from >= 4 && std::memcmp(window, sync, 4) == 0) return pos - 4;
-  }
-  return -1;
-}
 
 }  // namespace
 
@@ -80,8 +60,12 @@ ReplayStats LockstepReplay::run() {
   if (ran_) throw std::logic_error("LockstepReplay::run() called twice");
   ran_ = true;
   stats_ = ReplayStats{};
-  lcm::LogFile in(options_.input.string(), "r");
-  if (!in.good()) throw std::runtime_error("cannot open input log " + options_.input.string());
+  std::unique_ptr<LogReader> in;
+  try {
+    in = std::make_unique<LogReader>(options_.input, LogDamage::kSkip);
+  } catch (const LogError&) {
+    throw std::runtime_error("cannot open input log " + options_.input.string());
+  }
   if (!options_.output.empty()) {
     out_ = std::make_unique<LogWriter>(options_.output);
   }
@@ -100,43 +84,16 @@ ReplayStats LockstepReplay::run() {
   const Utime wall_start = monotonicUtime();
   Utime first_ts = 0, last_ts = 0;
   bool started = false;
-  FILE* file = in.getFilePtr();
-  long end_of_last_event = std::ftell(file);
-  int64_t last_eventnum = -1;
   auto is_input = [&](const std::string& channel) {
     return !stage_outputs.count(channel) && std::regex_match(channel, input_filter);
   };
   // The next event of the log, copied (LCM's reader reuses its buffer), or
-  // nothing at the end. Skips damaged bytes to the next event.
+  // nothing at the end. The reader skips damaged bytes to the next event.
   auto read_event = [&]() -> std::optional<OwnedEvent> {
-    for (;;) {
-      const lcm::LogEvent* ev = in.readNextEvent();
-      if (!ev) {
-        // LCM's reader stops at a damaged event header; skip to the next sync
-        // word and go on, so one bad event does not lose the rest of the log.
-        const long resume = findNextSyncWord(file, end_of_last_event + 1);
-        if (resume < 0) return std::nullopt;
-        log::warn("input log ", options_.input.string(), ": damaged data at bytes ",
-                  end_of_last_event, "..", resume, "; skipped to the next event");
-        stats_.bytes_skipped += resume - end_of_last_event;
-        std::fseek(file, resume, SEEK_SET);
-        end_of_last_event = resume;
-        continue;
-      }
-      end_of_last_event = std::ftell(file);
-      ++stats_.events_read;
-      // lcm-logger numbers events consecutively: a gap is events lost to damage.
-      if (stats_.events_read > 1 && ev->eventnum > last_eventnum + 1) {
-        const int64_t gap = ev->eventnum - last_eventnum - 1;
-        stats_.events_missing += gap;
-        log::warn("input log ", options_.input.string(), ": ", gap,
-                  " event(s) missing before event ", ev->eventnum, "; continuing");
-      }
-      last_eventnum = ev->eventnum;
-      const auto* bytes = static_cast<const uint8_t*>(ev->data);
-      return OwnedEvent{ev->timestamp, ev->channel,
-                        std::vector<uint8_t>(bytes, bytes + ev->datalen)};
-    }
+    const lcm::LogEvent* ev = in->next();
+    if (!ev) return std::nullopt;
+    const auto* bytes = static_cast<const uint8_t*>(ev->data);
+    return OwnedEvent{ev->timestamp, ev->channel, std::vector<uint8_t>(bytes, bytes + ev->datalen)};
   };
   // Events read but not yet delivered: each input among them has been offered
   // to the stages to prefetch (Stage::prefetch) once they were started.
@@ -186,15 +143,14 @@ ReplayStats LockstepReplay::run() {
     ++stats_.events_fed;
     dispatchUntilQuiet();
   }
-  // readNextEvent returns null at the end and on a damaged tail alike; bytes
-  // after the last complete event tell them apart.
-  std::fseek(file, 0, SEEK_END);
-  const long end = std::ftell(file);
-  const long pos = end_of_last_event;
-  if (pos >= 0 && end > pos) {
+  const LogReadStats& read = in->stats();
+  stats_.events_read = read.events_read;
+  stats_.events_missing = read.events_missing;
+  stats_.bytes_skipped = read.bytes_skipped;
+  if (read.tail_bytes > 0) {
     stats_.input_truncated = true;
-    stats_.input_bytes_unread = end - pos;
-    log::warn("input log ", options_.input.string(), " ends with ", end - pos,
+    stats_.input_bytes_unread = read.tail_bytes;
+    log::warn("input log ", options_.input.string(), " ends with ", read.tail_bytes,
               " bytes that are not a complete event (cut or corrupt); replayed the ",
               stats_.events_read, " complete events before them");
   }

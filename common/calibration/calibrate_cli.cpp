@@ -1,19 +1,23 @@
 #include "calibration/calibrate_cli.hpp"
 
+#include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <iomanip>
+#include <limits>
 #include <optional>
 #include <ostream>
+#include <regex>
+#include <sstream>
 
 #include "calibration/calibration.hpp"
 #include "calibration/frame_source.hpp"
-#include "eval/cli_args.hpp"
 #include "util/process.hpp"
 
 namespace vslam::calibration {
 namespace {
 
-using eval::UsageError;
+constexpr int kExitOk = 0, kExitDataError = 1, kExitUsage = 2;
 
 struct CalibrateOptions {
   BoardSpec board;
@@ -27,88 +31,121 @@ struct CalibrateOptions {
   int max_views = 0;       // 0: no limit
 };
 
-int parseCount(const std::string& option, const std::string& text, int min) {
-  const double v = eval::cli::parseDouble(option, text);
-  if (v != static_cast<int>(v) || v < min) {
-    throw UsageError(option + " must be an integer >= " + std::to_string(min) + ", got " + text);
-  }
-  return static_cast<int>(v);
+// A whole finite number (CLI11's range checks let nan and inf through).
+const CLI::Validator kFinite(
+    [](std::string& text) -> std::string {
+      std::istringstream in(text);
+      double v = 0;
+      return in >> v && in.peek() == EOF && std::isfinite(v) ? ""
+                                                             : "'" + text + "' is not a number";
+    },
+    "");
+
+std::string shortNumber(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
 }
 
-CalibrateOptions parseArgs(const std::vector<std::string>& args) {
-  CalibrateOptions o;
-  bool have_board = false, have_square = false;
-  eval::cli::ArgCursor cur(args);
-  while (!cur.done()) {
-    const std::string opt = cur.next();
-    if (opt == "--chessboard" || opt == "--charuco") {
-      if (have_board) throw UsageError("give one board: --chessboard or --charuco");
-      o.board.kind = opt == "--chessboard" ? BoardKind::kChessboard : BoardKind::kCharuco;
-      o.board.size = eval::cli::parseSize(opt, cur.value(opt));
-      have_board = true;
-    } else if (opt == "--square") {
-      o.board.square_size_m = eval::cli::parsePositive(opt, cur.value(opt));
-      have_square = true;
-    } else if (opt == "--marker") {
-      o.board.marker_size_m = eval::cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--dictionary") {
-      o.board.dictionary = cur.value(opt);
-    } else if (opt == "--images") {
-      o.folder = cur.value(opt);
-    } else if (opt == "--video") {
-      o.video = cur.value(opt);
-    } else if (opt == "--device") {
-      o.device = parseCount(opt, cur.value(opt), 0);
-    } else if (opt == "--out") {
-      o.out = cur.value(opt);
-    } else if (opt == "--stride") {
-      o.stride = parseCount(opt, cur.value(opt), 1);
-    } else if (opt == "--max-frames") {
-      o.max_frames = parseCount(opt, cur.value(opt), 1);
-    } else if (opt == "--max-views") {
-      o.max_views = parseCount(opt, cur.value(opt), 1);
-    } else if (opt == "--min-sharpness") {
-      o.selection.min_sharpness = eval::cli::parseDouble(opt, cur.value(opt));
-      if (o.selection.min_sharpness < 0) throw UsageError(opt + " must be >= 0");
-    } else if (opt == "--min-novelty") {
-      o.selection.min_novelty = eval::cli::parseDouble(opt, cur.value(opt));
-      if (o.selection.min_novelty < 0 || o.selection.min_novelty > 1) {
-        throw UsageError(opt + " must be in 0..1 (a fraction of the image diagonal)");
-      }
-    } else if (opt == "--outlier-factor") {
-      o.calibration.outlier_factor = eval::cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--min-views") {
-      o.calibration.min_views = parseCount(opt, cur.value(opt), 3);
-    } else if (opt == "--fix-aspect-ratio") {
-      o.calibration.fix_aspect_ratio = true;
-    } else if (opt == "--zero-tangent") {
-      o.calibration.zero_tangential = true;
-    } else if (opt == "--fix-k3") {
-      o.calibration.fix_k3 = true;
-    } else if (!opt.empty() && opt[0] == '-') {
-      throw UsageError("unknown option '" + opt + "'");
-    } else {
-      o.images.emplace_back(opt);
-    }
+// --chessboard / --charuco COLSxROWS: the board's kind and size.
+void addBoardOption(CLI::App& app, const std::string& name, BoardKind kind, BoardSpec* board,
+                    const std::string& description) {
+  app.add_option_function<std::string>(
+         name,
+         [=](const std::string& text) {
+           if (board->size.width > 0) {
+             throw CLI::ValidationError("give one board: --chessboard or --charuco");
+           }
+           std::smatch m;
+           if (!std::regex_match(text, m, std::regex("([0-9]{1,5})x([0-9]{1,5})")) ||
+               std::stoi(m[1]) < 1 || std::stoi(m[2]) < 1) {
+             throw CLI::ValidationError(name, "'" + text + "' is not COLSxROWS (e.g. 9x6)");
+           }
+           board->kind = kind;
+           board->size = cv::Size(std::stoi(m[1]), std::stoi(m[2]));
+         },
+         description)
+      ->type_name("COLSxROWS");
+}
+
+void addBoardOptions(CLI::App& app, CalibrateOptions& o) {
+  addBoardOption(app, "--chessboard", BoardKind::kChessboard, &o.board,
+                 "inner corners per row and column (OpenCV's sample: 9x6)");
+  addBoardOption(app, "--charuco", BoardKind::kCharuco, &o.board,
+                 "ChArUco board: squares per row and column");
+  app.add_option("--square", o.board.square_size_m, "side of a square, metres")
+      ->check(kFinite & CLI::PositiveNumber);
+  app.add_option("--marker", o.board.marker_size_m, "ChArUco: side of a marker, metres")
+      ->check(kFinite & CLI::PositiveNumber);
+  app.add_option("--dictionary", o.board.dictionary, "ChArUco: ArUco dictionary")
+      ->capture_default_str();
+}
+
+void addSourceOptions(CLI::App& app, CalibrateOptions& o) {
+  app.add_option("image", o.images, "image files");
+  app.add_option("--images", o.folder, "every image in a folder, by name");
+  app.add_option("--video", o.video, "a video file");
+  app.add_option("--device", o.device,
+                 "live camera /dev/videoN (V4L2); stop with Ctrl-C, or\n"
+                 "--max-frames / --max-views")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--stride", o.stride, "video or camera: every N-th frame")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-frames", o.max_frames, "stop after N frames read")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-views", o.max_views, "stop after N views kept")->check(CLI::PositiveNumber);
+}
+
+void addSelectionOptions(CLI::App& app, CalibrateOptions& o) {
+  ViewSelectionParams& s = o.selection;
+  CalibrationParams& c = o.calibration;
+  app.add_option("--min-sharpness", s.min_sharpness,
+                 "variance of the Laplacian in the board's box below which\n"
+                 "a view is blurred")
+      ->check(kFinite & CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--min-novelty", s.min_novelty,
+                 "board outline within F x the image diagonal of a kept\n"
+                 "view's: redundant (0..1)")
+      ->check(kFinite & CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--outlier-factor", c.outlier_factor,
+                 "drop views with an error above F x the median (and above\n" +
+                     shortNumber(c.min_outlier_error_px) + " px), recalibrate")
+      ->check(kFinite & CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--min-views", c.min_views, "fewer usable views is an error")
+      ->check(CLI::Range(3, std::numeric_limits<int>::max()))
+      ->capture_default_str();
+  app.add_flag("--fix-aspect-ratio", c.fix_aspect_ratio, "fx = fy");
+  app.add_flag("--zero-tangent", c.zero_tangential, "p1 = p2 = 0");
+  app.add_flag("--fix-k3", c.fix_k3, "k3 = 0");
+}
+
+// What the options say together; CLI::ValidationError if they do not fit.
+void checkOptions(const CalibrateOptions& o, const CLI::App& app) {
+  if (o.board.size.width == 0) {
+    throw CLI::ValidationError("no board: --chessboard COLSxROWS or --charuco COLSxROWS");
   }
-  if (!have_board) throw UsageError("no board: --chessboard COLSxROWS or --charuco COLSxROWS");
-  if (!have_square) throw UsageError("--square METRES (the side of a square) is required");
+  if (app.count("--square") == 0) {
+    throw CLI::ValidationError("--square METRES (the side of a square) is required");
+  }
   if (o.board.kind == BoardKind::kCharuco && !(o.board.marker_size_m > 0)) {
-    throw UsageError("--charuco needs --marker METRES (the side of a marker)");
+    throw CLI::ValidationError("--charuco needs --marker METRES (the side of a marker)");
   }
   try {
     validate(o.board);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("board: ") + e.what());
+    throw CLI::ValidationError(std::string("board: ") + e.what());
   }
   const int sources = (o.images.empty() ? 0 : 1) + (o.folder.empty() ? 0 : 1) +
                       (o.video.empty() ? 0 : 1) + (o.device ? 1 : 0);
   if (sources != 1) {
-    throw UsageError(
+    throw CLI::ValidationError(
         "give exactly one source: image files, --images DIR, --video FILE or --device N");
   }
-  if (o.out.empty()) throw UsageError("--out FILE.yml is required");
-  return o;
+  if (o.out.empty()) throw CLI::ValidationError("--out FILE.yml is required");
 }
 
 FrameSource openSource(const CalibrateOptions& o) {
@@ -147,67 +184,32 @@ void report(std::ostream& out, const CalibrationResult& r) {
 
 }  // namespace
 
-void printCalibrateUsage(std::ostream& os) {
-  os << "usage: vslam-calibrate (--chessboard COLSxROWS | --charuco COLSxROWS --marker M)\n"
-        "                       --square M --out FILE.yml SOURCE [options]\n"
-        "\n"
-        "Camera intrinsics and distortion from views of a planar board, written as OpenCV's\n"
-        "calibration YAML: point the robot file's `calibration:` key at it.\n"
-        "\n"
-        "board:\n"
-        "  --chessboard COLSxROWS    inner corners per row and column (OpenCV's sample: 9x6)\n"
-        "  --charuco COLSxROWS       ChArUco board: squares per row and column\n"
-        "  --square M                side of a square, metres\n"
-        "  --marker M                ChArUco: side of a marker, metres\n"
-        "  --dictionary NAME         ChArUco: ArUco dictionary (default DICT_4X4_50)\n"
-        "source (exactly one):\n"
-        "  IMAGE...                  image files\n"
-        "  --images DIR              every image in a folder, by name\n"
-        "  --video FILE              a video file\n"
-        "  --device N                live camera /dev/videoN (V4L2); stop with Ctrl-C, or\n"
-        "                            --max-frames / --max-views\n"
-        "  --stride N                video or camera: every N-th frame (default 1)\n"
-        "  --max-frames N            stop after N frames read\n"
-        "  --max-views N             stop after N views kept\n"
-        "view selection:\n"
-        "  --min-sharpness V         variance of the Laplacian in the board's box below which a\n"
-        "                            view is blurred (default "
-     << ViewSelectionParams{}.min_sharpness
-     << ")\n"
-        "  --min-novelty F           board outline within F x the image diagonal of a kept\n"
-        "                            view's: redundant (default "
-     << ViewSelectionParams{}.min_novelty
-     << ")\n"
-        "calibration:\n"
-        "  --outlier-factor F        drop views with an error above F x the median (and above "
-     << CalibrationParams{}.min_outlier_error_px << " px), recalibrate (default "
-     << CalibrationParams{}.outlier_factor
-     << ")\n"
-        "  --min-views N             fewer usable views is an error (default "
-     << CalibrationParams{}.min_views
-     << ")\n"
-        "  --fix-aspect-ratio        fx = fy\n"
-        "  --zero-tangent            p1 = p2 = 0\n"
-        "  --fix-k3                  k3 = 0\n"
-        "  --out FILE.yml            the calibration file (replaced)\n"
-        "\n"
-        "Exit codes: 0 ok, 1 data problem (unreadable input, too few usable views), 2 bad\n"
-        "command line. See docs/calibration.md.\n";
-}
-
 int runCalibrateCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  for (const auto& a : args) {
-    if (a == "--help" || a == "-h") {
-      printCalibrateUsage(out);
-      return eval::kExitOk;
-    }
-  }
+  CLI::App app{
+      "vslam-calibrate: camera intrinsics and distortion from views of a planar board,\n"
+      "written as OpenCV's calibration YAML: point the robot file's `calibration:` key at it.\n"
+      "Board: --chessboard COLSxROWS, or --charuco COLSxROWS --marker M; --square M.\n"
+      "Source, exactly one: IMAGE..., --images DIR, --video FILE or --device N.",
+      "vslam-calibrate"};
+  app.footer(
+      "Exit codes: 0 ok, 1 data problem (unreadable input, too few usable views), 2 bad\n"
+      "command line. See docs/calibration.md.");
   CalibrateOptions o;
+  addBoardOptions(app, o);
+  addSourceOptions(app, o);
+  addSelectionOptions(app, o);
+  app.add_option("--out", o.out, "the calibration file (replaced)");
   try {
-    o = parseArgs(args);
-  } catch (const UsageError& e) {
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
+    app.parse(reversed);
+    checkOptions(o, app);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      out << app.help();
+      return kExitOk;
+    }
     err << "vslam-calibrate: " << e.what() << " (see --help)\n";
-    return eval::kExitUsage;
+    return kExitUsage;
   }
   try {
     FrameSource source = openSource(o);
@@ -251,13 +253,10 @@ int runCalibrateCli(const std::vector<std::string>& args, std::ostream& out, std
            "    - name: forward\n"
            "      calibration: ../calib/"
         << o.out.filename().string() << "\n";
-    return eval::kExitOk;
-  } catch (const UsageError& e) {
-    err << "vslam-calibrate: " << e.what() << " (see --help)\n";
-    return eval::kExitUsage;
+    return kExitOk;
   } catch (const std::exception& e) {
     err << "vslam-calibrate: " << e.what() << "\n";
-    return eval::kExitDataError;
+    return kExitDataError;
   }
 }
 

@@ -10,6 +10,5 @@
 namespace vslam::calibration {
 
 int runCalibrateCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
-void printCalibrateUsage(std::ostream& os);
 
 }  // namespace vslam::calibration

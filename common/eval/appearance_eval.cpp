@@ -14,9 +14,9 @@
 #include <vslam/appearance_map_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
 
-#include "eval/cli_args.hpp"
+#include "eval/command_line.hpp"
 #include "eval/errors.hpp"
-#include "eval/log_reader.hpp"
+#include "eval/log_events.hpp"
 #include "eval/plot.hpp"
 #include "odometry/pose2.hpp"
 #include "util/angles.hpp"
@@ -145,172 +145,192 @@ const char* statusName(AppearanceKidnap::Status status) {
 
 std::string jsonStep(int64_t step) { return step < 0 ? "null" : std::to_string(step); }
 
-}  // namespace
-
-double AppearanceHypothesisError::position() const { return std::hypot(ex, ey); }
-
-AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEvalOptions& options) {
-  AppearanceReport r;
-  r.input = log.string();
-  r.options = options;
-  std::vector<TruePose> truth;
+// What the evaluation reads from the log.
+struct AppearanceLog {
+  std::vector<TruePose> truth;  // sorted by time
   std::vector<vslam::appearance_hypotheses_t> steps;
   std::vector<vslam::appearance_event_t> events;
-  std::map<int64_t, int64_t> state_utime;
+  std::map<int64_t, int64_t> state_utime;  // state id -> time its snapshot was taken
+};
+
+// Reads the log's channels; DataError without steps or ground truth. Sets
+// the report's map counts from the last map message.
+AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions& options,
+                                AppearanceReport* r) {
+  AppearanceLog in;
   const auto counts = forEachLogEvent(log, [&](const LogEventRef& e) {
     const std::string& ch = e.event.channel;
     if (ch == options.ref_channel) {
       const auto m = decodeEvent<vslam::ground_truth_pose_t>(e, "vslam.ground_truth_pose_t");
-      truth.push_back({m.utime, m.x, m.y, m.theta});
+      in.truth.push_back({m.utime, m.x, m.y, m.theta});
     } else if (ch == options.hypotheses_channel) {
-      steps.push_back(
+      in.steps.push_back(
           decodeEvent<vslam::appearance_hypotheses_t>(e, "vslam.appearance_hypotheses_t"));
     } else if (ch == options.event_channel) {
-      events.push_back(decodeEvent<vslam::appearance_event_t>(e, "vslam.appearance_event_t"));
+      in.events.push_back(decodeEvent<vslam::appearance_event_t>(e, "vslam.appearance_event_t"));
     } else if (ch == options.map_channel) {
       const auto m = decodeEvent<vslam::appearance_map_t>(e, "vslam.appearance_map_t");
-      for (const auto& s : m.states) state_utime.emplace(s.state_id, s.utime);
-      r.map_states = m.num_states;
-      r.map_links = m.num_links;
+      for (const auto& s : m.states) in.state_utime.emplace(s.state_id, s.utime);
+      r->map_states = m.num_states;
+      r->map_links = m.num_links;
     }
   });
-  if (steps.empty()) {
+  if (in.steps.empty()) {
     throw DataError(log.string() + ": no " + options.hypotheses_channel +
                     " messages (channels: " + channelList(counts) + ")");
   }
-  if (truth.empty()) {
+  if (in.truth.empty()) {
     throw DataError(log.string() + ": no ground truth on " + options.ref_channel +
                     " (channels: " + channelList(counts) + ")");
   }
-  std::sort(truth.begin(), truth.end(),
+  std::sort(in.truth.begin(), in.truth.end(),
             [](const TruePose& a, const TruePose& b) { return a.utime < b.utime; });
   // The new-state hypothesis of each step names the state its snapshot made.
-  for (const auto& s : steps) {
+  for (const auto& s : in.steps) {
     for (const auto& h : s.hypotheses) {
-      if (h.is_new_state) state_utime[h.state_id] = s.utime;
+      if (h.is_new_state) in.state_utime[h.state_id] = s.utime;
     }
   }
-  std::map<int64_t, bool> created;
-  for (const auto& s : steps) {
-    for (const auto& h : s.hypotheses) {
-      if (h.is_new_state) created[h.state_id] = true;
-    }
-  }
-  r.states_created = static_cast<int64_t>(created.size());
+  return in;
+}
 
-  const int64_t t0 = steps.front().utime;
-  // Error of "the robot is in state k" at time t: state's true pose minus the robot's.
-  auto errorOf = [&](int64_t state_id, int64_t utime, AppearanceHypothesisError* e) {
-    const auto it = state_utime.find(state_id);
+// The ground truth of the robot and of the states, as the measures need it.
+class StateTruth {
+ public:
+  explicit StateTruth(const AppearanceLog& in) : in_(in) {
+    for (const auto& [id, utime] : in.state_utime) {
+      TruePose p;
+      if (truthAt(in.truth, utime, &p)) state_truth_.emplace_back(utime, p);
+    }
+  }
+
+  // Error of "the robot is in state k" at time t: state's true pose minus
+  // the robot's; false if either is unknown.
+  bool errorOf(int64_t state_id, int64_t utime, AppearanceHypothesisError* e) const {
+    const auto it = in_.state_utime.find(state_id);
     TruePose now, then;
-    if (it == state_utime.end() || !truthAt(truth, utime, &now) ||
-        !truthAt(truth, it->second, &then)) {
+    if (it == in_.state_utime.end() || !truthAt(in_.truth, utime, &now) ||
+        !truthAt(in_.truth, it->second, &then)) {
       return false;
     }
     e->ex = then.x - now.x;
     e->ey = then.y - now.y;
     e->eheading = wrapAngle(then.theta - now.theta);
     return true;
-  };
-
-  // True poses of the states, for the nearest-state floor.
-  std::vector<std::pair<int64_t, TruePose>> state_truth;
-  for (const auto& [id, utime] : state_utime) {
-    TruePose p;
-    if (truthAt(truth, utime, &p)) state_truth.emplace_back(utime, p);
   }
+
   // The robot's true distance at `utime` to the nearest state made before
   // `made_before` and facing within 45 degrees of it; NaN if none.
-  auto nearestState = [&](int64_t utime, int64_t made_before) {
+  double nearestState(int64_t utime, int64_t made_before) const {
     TruePose now;
-    if (!truthAt(truth, utime, &now)) return kNaN;
+    if (!truthAt(in_.truth, utime, &now)) return kNaN;
     double best = kNaN;
-    for (const auto& [t, p] : state_truth) {
+    for (const auto& [t, p] : state_truth_) {
       if (t >= made_before || std::abs(wrapAngle(p.theta - now.theta)) > M_PI / 4) continue;
       const double d = std::hypot(p.x - now.x, p.y - now.y);
       if (!(d >= best)) best = d;
     }
     return best;
-  };
+  }
 
+ private:
+  const AppearanceLog& in_;
+  std::vector<std::pair<int64_t, TruePose>> state_truth_;
+};
+
+// Sums over the steps, for the report's averages.
+struct StepTotals {
   std::vector<double> pos, heading, best_pos, step_seconds, nearest;
   double weight_sum = 0, weighted_pos_sum = 0, weighted_nearest_sum = 0;
   int64_t within = 0;
   double hyp_sum = 0;
-  int64_t previous_utime = std::numeric_limits<int64_t>::min();
-  for (const auto& s : steps) {
-    AppearanceStepRow row;
-    row.step = s.step;
-    row.t = 1e-6 * static_cast<double>(s.utime - t0);
-    row.hypotheses = static_cast<int>(s.hypotheses.size());
-    row.mean_position_error = kNaN;
-    row.best_position_error = kNaN;
-    std::vector<double> step_pos;
-    double step_weight = 0, step_weighted_pos = 0;
-    for (size_t i = 0; i < s.hypotheses.size(); ++i) {
-      const auto& h = s.hypotheses[i];
-      if (h.is_new_state) continue;
-      ++row.revisits;
-      AppearanceHypothesisError e;
-      e.step = s.step;
-      e.state_id = h.state_id;
-      e.belief = h.belief;
-      if (!errorOf(h.state_id, s.utime, &e)) {
-        ++r.unknown_states;
-        continue;
-      }
-      r.errors.push_back(e);
-      step_pos.push_back(e.position());
-      step_weight += h.belief;
-      step_weighted_pos += h.belief * e.position();
-      pos.push_back(e.position());
-      heading.push_back(std::abs(e.eheading));
-      within += e.position() < options.action_length_m;
-      if (h.state_id == s.best_state_id && i == 0) row.best_position_error = e.position();
-    }
-    row.best_is_revisit = !s.hypotheses.empty() && !s.hypotheses.front().is_new_state;
-    row.nearest_state_distance = nearestState(s.utime, s.utime);
-    // The state of the step before is where the robot just came from, not a
-    // place it came back to.
-    row.at_mapped_place = nearestState(s.utime, previous_utime) < options.revisit_radius_m;
-    previous_utime = s.utime;
-    if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
-      row.best_correct = row.best_position_error < options.action_length_m;
-      row.best_wrong = !row.best_correct;
-    }
-    r.revisit_steps += row.at_mapped_place;
-    r.revisit_steps_recognized += row.at_mapped_place && row.best_correct;
-    r.wrong_revisit_steps += row.best_wrong;
-    if (!step_pos.empty() && std::isfinite(row.nearest_state_distance)) {
-      for (size_t k = 0; k < step_pos.size(); ++k) nearest.push_back(row.nearest_state_distance);
-      weight_sum += step_weight;
-      weighted_pos_sum += step_weighted_pos;
-      weighted_nearest_sum += step_weight * row.nearest_state_distance;
-    }
-    row.mean_position_error = mean(step_pos);
-    if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
-      ++r.steps_best_revisit;
-      best_pos.push_back(row.best_position_error);
-    }
-    r.max_hypotheses = std::max(r.max_hypotheses, row.hypotheses);
-    hyp_sum += row.hypotheses;
-    step_seconds.push_back(s.step_seconds);
-    r.steps.push_back(row);
-  }
-  r.mean_hypotheses = hyp_sum / static_cast<double>(steps.size());
-  r.mean_position_error = mean(pos);
-  r.weighted_position_error = weight_sum > 0 ? weighted_pos_sum / weight_sum : kNaN;
-  r.weighted_nearest_state_distance = weight_sum > 0 ? weighted_nearest_sum / weight_sum : kNaN;
-  r.median_position_error = median(pos);
-  r.max_position_error = pos.empty() ? kNaN : *std::max_element(pos.begin(), pos.end());
-  r.mean_abs_heading_error = mean(heading);
-  r.fraction_within_action =
-      pos.empty() ? kNaN : static_cast<double>(within) / static_cast<double>(pos.size());
-  r.mean_best_position_error = mean(best_pos);
-  r.mean_nearest_state_distance = mean(nearest);
-  r.mean_step_seconds = mean(step_seconds);
-  r.max_step_seconds = *std::max_element(step_seconds.begin(), step_seconds.end());
+};
 
+// One step's row: its revisit hypotheses' errors (added to r->errors and
+// the totals), whether the robot is at a mapped place and the best is right.
+AppearanceStepRow scoreStep(const vslam::appearance_hypotheses_t& s, int64_t t0,
+                            int64_t previous_utime, const StateTruth& truth,
+                            const AppearanceEvalOptions& options, AppearanceReport* r,
+                            StepTotals* totals) {
+  AppearanceStepRow row;
+  row.step = s.step;
+  row.t = 1e-6 * static_cast<double>(s.utime - t0);
+  row.hypotheses = static_cast<int>(s.hypotheses.size());
+  row.mean_position_error = kNaN;
+  row.best_position_error = kNaN;
+  std::vector<double> step_pos;
+  double step_weight = 0, step_weighted_pos = 0;
+  for (size_t i = 0; i < s.hypotheses.size(); ++i) {
+    const auto& h = s.hypotheses[i];
+    if (h.is_new_state) continue;
+    ++row.revisits;
+    AppearanceHypothesisError e;
+    e.step = s.step;
+    e.state_id = h.state_id;
+    e.belief = h.belief;
+    if (!truth.errorOf(h.state_id, s.utime, &e)) {
+      ++r->unknown_states;
+      continue;
+    }
+    r->errors.push_back(e);
+    step_pos.push_back(e.position());
+    step_weight += h.belief;
+    step_weighted_pos += h.belief * e.position();
+    totals->pos.push_back(e.position());
+    totals->heading.push_back(std::abs(e.eheading));
+    totals->within += e.position() < options.action_length_m;
+    if (h.state_id == s.best_state_id && i == 0) row.best_position_error = e.position();
+  }
+  row.best_is_revisit = !s.hypotheses.empty() && !s.hypotheses.front().is_new_state;
+  row.nearest_state_distance = truth.nearestState(s.utime, s.utime);
+  // The state of the step before is where the robot just came from, not a
+  // place it came back to.
+  row.at_mapped_place = truth.nearestState(s.utime, previous_utime) < options.revisit_radius_m;
+  if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
+    row.best_correct = row.best_position_error < options.action_length_m;
+    row.best_wrong = !row.best_correct;
+  }
+  r->revisit_steps += row.at_mapped_place;
+  r->revisit_steps_recognized += row.at_mapped_place && row.best_correct;
+  r->wrong_revisit_steps += row.best_wrong;
+  if (!step_pos.empty() && std::isfinite(row.nearest_state_distance)) {
+    for (size_t k = 0; k < step_pos.size(); ++k) {
+      totals->nearest.push_back(row.nearest_state_distance);
+    }
+    totals->weight_sum += step_weight;
+    totals->weighted_pos_sum += step_weighted_pos;
+    totals->weighted_nearest_sum += step_weight * row.nearest_state_distance;
+  }
+  row.mean_position_error = mean(step_pos);
+  if (row.best_is_revisit && std::isfinite(row.best_position_error)) {
+    ++r->steps_best_revisit;
+    totals->best_pos.push_back(row.best_position_error);
+  }
+  return row;
+}
+
+// The report's averages over the steps.
+void summarizeSteps(const StepTotals& t, std::size_t steps, AppearanceReport* r) {
+  r->mean_hypotheses = t.hyp_sum / static_cast<double>(steps);
+  r->mean_position_error = mean(t.pos);
+  r->weighted_position_error = t.weight_sum > 0 ? t.weighted_pos_sum / t.weight_sum : kNaN;
+  r->weighted_nearest_state_distance =
+      t.weight_sum > 0 ? t.weighted_nearest_sum / t.weight_sum : kNaN;
+  r->median_position_error = median(t.pos);
+  r->max_position_error = t.pos.empty() ? kNaN : *std::max_element(t.pos.begin(), t.pos.end());
+  r->mean_abs_heading_error = mean(t.heading);
+  r->fraction_within_action =
+      t.pos.empty() ? kNaN : static_cast<double>(t.within) / static_cast<double>(t.pos.size());
+  r->mean_best_position_error = mean(t.best_pos);
+  r->mean_nearest_state_distance = mean(t.nearest);
+  r->mean_step_seconds = mean(t.step_seconds);
+  r->max_step_seconds = *std::max_element(t.step_seconds.begin(), t.step_seconds.end());
+}
+
+// Each re-localisation event, judged by the true distance to its state.
+void scoreRelocalizations(const std::vector<vslam::appearance_event_t>& events, int64_t t0,
+                          const StateTruth& truth, const AppearanceEvalOptions& options,
+                          AppearanceReport* r) {
   for (const auto& ev : events) {
     if (ev.event != vslam::appearance_event_t::EVENT_RELOCALIZED) continue;
     AppearanceRelocalization rl;
@@ -320,18 +340,54 @@ AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEval
     rl.previous_state_id = ev.previous_state_id;
     rl.belief = ev.belief;
     AppearanceHypothesisError e;
-    if (errorOf(ev.state_id, ev.utime, &e)) {
+    if (truth.errorOf(ev.state_id, ev.utime, &e)) {
       rl.position_error = e.position();
       rl.heading_error = e.eheading;
       rl.correct = rl.position_error < options.action_length_m;
     } else {
       rl.position_error = rl.heading_error = kNaN;
     }
-    r.relocalizations.push_back(rl);
-    r.relocalizations_correct += rl.correct;
-    r.relocalizations_wrong += std::isfinite(rl.position_error) && !rl.correct;
+    r->relocalizations.push_back(rl);
+    r->relocalizations_correct += rl.correct;
+    r->relocalizations_wrong += std::isfinite(rl.position_error) && !rl.correct;
   }
-  r.kidnaps = findKidnaps(steps, truth, state_utime, r.steps, options, nearestState);
+}
+
+}  // namespace
+
+double AppearanceHypothesisError::position() const { return std::hypot(ex, ey); }
+
+AppearanceReport evaluateAppearanceLog(const fs::path& log, const AppearanceEvalOptions& options) {
+  AppearanceReport r;
+  r.input = log.string();
+  r.options = options;
+  const AppearanceLog in = readAppearanceLog(log, options, &r);
+  std::map<int64_t, bool> created;
+  for (const auto& s : in.steps) {
+    for (const auto& h : s.hypotheses) {
+      if (h.is_new_state) created[h.state_id] = true;
+    }
+  }
+  r.states_created = static_cast<int64_t>(created.size());
+
+  const int64_t t0 = in.steps.front().utime;
+  const StateTruth truth(in);
+  StepTotals totals;
+  int64_t previous_utime = std::numeric_limits<int64_t>::min();
+  for (const auto& s : in.steps) {
+    const AppearanceStepRow row = scoreStep(s, t0, previous_utime, truth, options, &r, &totals);
+    previous_utime = s.utime;
+    r.max_hypotheses = std::max(r.max_hypotheses, row.hypotheses);
+    totals.hyp_sum += row.hypotheses;
+    totals.step_seconds.push_back(s.step_seconds);
+    r.steps.push_back(row);
+  }
+  summarizeSteps(totals, in.steps.size(), &r);
+  scoreRelocalizations(in.events, t0, truth, options, &r);
+  r.kidnaps = findKidnaps(in.steps, in.truth, in.state_utime, r.steps, options,
+                          [&truth](int64_t utime, int64_t made_before) {
+                            return truth.nearestState(utime, made_before);
+                          });
   return r;
 }
 
@@ -504,68 +560,40 @@ std::vector<fs::path> writeAppearancePlots(const fs::path& dir, const Appearance
   return writePlotImages(plots);
 }
 
-void printAppearanceUsage(std::ostream& os) {
-  os << "--appearance LOG: appearance SLAM against ground truth (Lee & Sowmya Figs. 8-11)\n"
-        "  --hypotheses-channel CH  vslam.appearance_hypotheses_t (default APPEARANCE_HYPOTHESES)\n"
-        "  --event-channel CH       vslam.appearance_event_t (default APPEARANCE_EVENT)\n"
-        "  --map-channel CH         vslam.appearance_map_t (default APPEARANCE_MAP)\n"
-        "  --ref-channel CH         vslam.ground_truth_pose_t (default GROUND_TRUTH)\n"
-        "  --action-length M        a re-localization is correct within M metres (default 1)\n"
-        "  --revisit-radius M       the robot is at a mapped place within M metres of a\n"
-        "                           state made before (default 0.5)\n"
-        "  --plot-dir DIR           write hypotheses.png, error_x.png, error_y.png,\n"
-        "                           error_heading.png\n"
-        "  --plot-size WxH          plot size in pixels (default 1000x800)\n"
-        "  --json FILE              write the summary as JSON\n";
+void addAppearanceEvalOptions(CLI::App& app, AppearanceEvalArgs& a) {
+  AppearanceEvalOptions& o = a.options;
+  app.add_option("log", a.log, "an LCM log");
+  app.add_option("--hypotheses-channel", o.hypotheses_channel, "vslam.appearance_hypotheses_t")
+      ->capture_default_str();
+  app.add_option("--event-channel", o.event_channel, "vslam.appearance_event_t")
+      ->capture_default_str();
+  app.add_option("--map-channel", o.map_channel, "vslam.appearance_map_t")->capture_default_str();
+  app.add_option("--ref-channel", o.ref_channel, "vslam.ground_truth_pose_t")
+      ->capture_default_str();
+  app.add_option("--action-length", o.action_length_m,
+                 "a re-localization is correct within M metres")
+      ->check(positiveNumber())
+      ->capture_default_str();
+  app.add_option("--revisit-radius", o.revisit_radius_m,
+                 "the robot is at a mapped place within M metres of a\nstate made before")
+      ->check(positiveNumber())
+      ->capture_default_str();
+  app.add_option("--plot-dir", a.plot_dir,
+                 "write hypotheses.png, error_x.png, error_y.png,\nerror_heading.png");
+  addSizeOption(app, "--plot-size", &a.plot_size, "plot size in pixels", Figure::minimumSize());
+  app.add_option("--json", a.json, "write the summary as JSON");
 }
 
-int runAppearanceEval(const std::vector<std::string>& args, std::ostream& out) {
-  AppearanceEvalOptions options;
-  std::optional<fs::path> log, plot_dir, json;
-  cv::Size plot_size{1000, 800};
-  cli::ArgCursor cur(args);
-  while (!cur.done()) {
-    const std::string opt = cur.next();
-    if (opt == "--hypotheses-channel") {
-      options.hypotheses_channel = cur.value(opt);
-    } else if (opt == "--event-channel") {
-      options.event_channel = cur.value(opt);
-    } else if (opt == "--map-channel") {
-      options.map_channel = cur.value(opt);
-    } else if (opt == "--ref-channel") {
-      options.ref_channel = cur.value(opt);
-    } else if (opt == "--action-length") {
-      options.action_length_m = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--revisit-radius") {
-      options.revisit_radius_m = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--plot-dir") {
-      plot_dir = cur.value(opt);
-    } else if (opt == "--plot-size") {
-      plot_size = cli::parseSize(opt, cur.value(opt));
-      const cv::Size min = Figure::minimumSize();
-      if (plot_size.width < min.width || plot_size.height < min.height) {
-        throw UsageError("--plot-size must be at least " + std::to_string(min.width) + "x" +
-                         std::to_string(min.height));
-      }
-    } else if (opt == "--json") {
-      json = cur.value(opt);
-    } else if (!opt.empty() && opt[0] == '-') {
-      throw UsageError("unknown option '" + opt + "' for --appearance");
-    } else if (log) {
-      throw UsageError("more than one log given ('" + log->string() + "' and '" + opt + "')");
-    } else {
-      log = opt;
-    }
-  }
-  if (!log) throw UsageError("--appearance needs a LOG");
-  const AppearanceReport report = evaluateAppearanceLog(*log, options);
+int runAppearanceEval(const AppearanceEvalArgs& a, std::ostream& out) {
+  if (!a.log) throw UsageError("--appearance needs a LOG");
+  const AppearanceReport report = evaluateAppearanceLog(*a.log, a.options);
   printAppearanceReport(out, report);
-  if (json) {
-    writeAppearanceJson(*json, report);
-    log::info("wrote ", json->string());
+  if (a.json) {
+    writeAppearanceJson(*a.json, report);
+    log::info("wrote ", a.json->string());
   }
-  if (plot_dir) {
-    for (const auto& p : writeAppearancePlots(*plot_dir, report, plot_size)) {
+  if (a.plot_dir) {
+    for (const auto& p : writeAppearancePlots(*a.plot_dir, report, a.plot_size)) {
       log::info("wrote ", p.string());
     }
   }

@@ -24,8 +24,13 @@
 #include <filesystem>
 #include <iosfwd>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
+
+namespace CLI {
+class App;
+}
 
 namespace vslam::eval {
 
@@ -134,8 +139,14 @@ std::vector<std::filesystem::path> writeAppearancePlots(const std::filesystem::p
                                                         const AppearanceReport& report,
                                                         cv::Size size);
 
-// The --appearance mode of vslam-eval (arguments after the mode flag).
-int runAppearanceEval(const std::vector<std::string>& args, std::ostream& out);
-void printAppearanceUsage(std::ostream& os);
+// The --appearance mode of vslam-eval: its options, added to the mode's
+// parser, and the run over them.
+struct AppearanceEvalArgs {
+  std::optional<std::filesystem::path> log, plot_dir, json;
+  AppearanceEvalOptions options;
+  cv::Size plot_size{1000, 800};
+};
+void addAppearanceEvalOptions(CLI::App& app, AppearanceEvalArgs& args);
+int runAppearanceEval(const AppearanceEvalArgs& args, std::ostream& out);
 
 }  // namespace vslam::eval

@@ -2,11 +2,14 @@
 
 #include <cctype>
 #include <filesystem>
+#include <functional>
+#include <iomanip>
+#include <memory>
 #include <optional>
 #include <ostream>
 
 #include "eval/appearance_eval.hpp"
-#include "eval/cli_args.hpp"
+#include "eval/command_line.hpp"
 #include "eval/errors.hpp"
 #include "eval/log_measurements.hpp"
 #include "eval/log_trajectories.hpp"
@@ -19,6 +22,9 @@ namespace vslam::eval {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A mode's run, once its options are parsed.
+using ModeRun = std::function<int(std::ostream& out)>;
 
 // ---- --trajectory -------------------------------------------------------
 
@@ -33,85 +39,83 @@ struct TrajectoryArgs {
   cv::Size plot_size{1000, 800};
 };
 
-TrajectoryArgs parseTrajectoryArgs(const std::vector<std::string>& args) {
-  TrajectoryArgs a;
-  cli::ArgCursor cur(args);
-  while (!cur.done()) {
-    const std::string opt = cur.next();
-    auto logOption = [&](std::string* target) {
-      *target = cur.value(opt);
-      a.log_option_given = true;
-    };
-    if (opt == "--ref") {
-      a.ref_file = cur.value(opt);
-    } else if (opt == "--est") {
-      a.est_files.emplace_back(cur.value(opt));
-    } else if (opt == "--odom") {
-      a.odom_files.emplace_back(cur.value(opt));
-    } else if (opt == "--ref-channel") {
-      logOption(&a.log_options.ref_channel);
-    } else if (opt == "--est-channel") {
-      a.log_options.est_channels.push_back(cur.value(opt));
-      a.log_option_given = true;
-    } else if (opt == "--odom-channel") {
-      a.log_options.odom_channels.push_back(cur.value(opt));
-      a.log_option_given = true;
-    } else if (opt == "--map-channel") {
-      logOption(&a.log_options.map_channel);
-    } else if (opt == "--max-diff") {
-      a.eval.max_diff = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--offset") {
-      a.eval.offset = cli::parseDouble(opt, cur.value(opt));
-    } else if (opt == "--align") {
-      const std::string v = cur.value(opt);
-      const auto mode = parseAlignMode(v);
-      if (!mode) throw UsageError("--align '" + v + "': expected none, se2, se3 or sim3");
-      a.eval.align = *mode;
-    } else if (opt == "--delta") {
-      a.eval.rpe.delta = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--delta-unit") {
-      const std::string v = cur.value(opt);
-      const auto unit = parseDeltaUnit(v);
-      if (!unit) throw UsageError("--delta-unit '" + v + "': expected s or m");
-      a.eval.rpe.unit = *unit;
-    } else if (opt == "--write-tum") {
-      a.write_tum = cur.value(opt);
-    } else if (opt == "--write-tum-ref") {
-      a.write_tum_ref = cur.value(opt);
-    } else if (opt == "--plot-dir") {
-      a.plot_dir = cur.value(opt);
-    } else if (opt == "--plot-size") {
-      a.plot_size = cli::parseSize(opt, cur.value(opt));
-      const cv::Size min = Figure::minimumSize();
-      if (a.plot_size.width < min.width || a.plot_size.height < min.height) {
-        throw UsageError("--plot-size must be at least " + std::to_string(min.width) + "x" +
-                         std::to_string(min.height));
-      }
-    } else if (opt == "--json") {
-      a.json = cur.value(opt);
-    } else if (!opt.empty() && opt[0] == '-') {
-      throw UsageError("unknown option '" + opt + "'");
-    } else if (a.log) {
-      throw UsageError("more than one log given ('" + a.log->string() + "' and '" + opt + "')");
-    } else {
-      a.log = opt;
-    }
-  }
+void addTrajectoryOptions(CLI::App& app, TrajectoryArgs& a) {
+  const auto log_option = [&a](const std::string&) { a.log_option_given = true; };
+  const std::string input = "input: an LCM log", tum = "input: TUM files",
+                    options = "trajectory options";
+  app.add_option("log", a.log, "an LCM log")->group(input);
+  app.add_option("--ref-channel", a.log_options.ref_channel, "reference, vslam.ground_truth_pose_t")
+      ->capture_default_str()
+      ->each(log_option)
+      ->group(input);
+  app.add_option("--est-channel", a.log_options.est_channels,
+                 "SLAM estimate, vslam.pose_estimate_t; repeatable")
+      ->each(log_option)
+      ->group(input);
+  app.add_option("--odom-channel", a.log_options.odom_channels,
+                 "odometry-only estimate, vslam.pose_estimate_t or raw\n"
+                 "vslam.odometry_t; repeatable (neither given: " +
+                     std::string(kDefaultEstimateChannel) +
+                     " if present,\nand POSE_ODOMETRY, else ODOMETRY, if present)")
+      ->each(log_option)
+      ->group(input);
+  app.add_option("--map-channel", a.log_options.map_channel,
+                 "landmarks to plot, vslam.map_t (if present; '' for none)")
+      ->capture_default_str()
+      ->each(log_option)
+      ->group(input);
+  app.add_option("--ref", a.ref_file,
+                 "reference TUM trajectory file\n'timestamp tx ty tz qx qy qz qw'")
+      ->group(tum);
+  app.add_option("--est", a.est_files, "estimate TUM file; repeatable")->group(tum);
+  app.add_option("--odom", a.odom_files, "odometry-only TUM file; repeatable")->group(tum);
+  app.add_option("--max-diff", a.eval.max_diff,
+                 "association: max |t_ref - (t_est + offset)|, strictly less (s)")
+      ->check(positiveNumber())
+      ->capture_default_str()
+      ->group(options);
+  app.add_option("--offset", a.eval.offset, "seconds added to the estimate's stamps")
+      ->check(finiteNumber())
+      ->capture_default_str()
+      ->group(options);
+  addChoiceOption(app, "--align", &a.eval.align, parseAlignMode, "none, se2, se3, sim3 or origin",
+                  "alignment before ATE: none|se2|se3|sim3|origin (se3 as\nevaluate_ate.py; "
+                  "origin: first poses made to coincide,\nevo --align_origin)")
+      ->default_str(toString(a.eval.align))
+      ->group(options);
+  app.add_option("--delta", a.eval.rpe.delta, "RPE pair spacing")
+      ->check(positiveNumber())
+      ->capture_default_str()
+      ->group(options);
+  addChoiceOption(app, "--delta-unit", &a.eval.rpe.unit, parseDeltaUnit, "s or m",
+                  "...in seconds or metres travelled: s|m")
+      ->default_str(toString(a.eval.rpe.unit))
+      ->group(options);
+  app.add_option("--write-tum", a.write_tum,
+                 "write the estimate(s) as TUM (several: FILE.<name>.ext)")
+      ->group(options);
+  app.add_option("--write-tum-ref", a.write_tum_ref, "write the reference as TUM")->group(options);
+  app.add_option("--plot-dir", a.plot_dir, "write DIR/trajectory.png and DIR/error.png")
+      ->group(options);
+  addSizeOption(app, "--plot-size", &a.plot_size, "plot size in pixels", Figure::minimumSize())
+      ->group(options);
+  app.add_option("--json", a.json, "write the results as JSON")->group(options);
+}
+
+void checkTrajectoryArgs(const TrajectoryArgs& a) {
   const bool tum = a.ref_file || !a.est_files.empty() || !a.odom_files.empty();
   if (a.log && tum) throw UsageError("give either a LOG or --ref/--est TUM files, not both");
   if (!a.log && !tum) throw UsageError("nothing to evaluate: give a LOG or --ref REF --est EST");
-  if (tum) {
-    if (!a.ref_file) throw UsageError("--est/--odom need --ref REF (the reference TUM file)");
-    if (a.est_files.empty() && a.odom_files.empty()) {
-      throw UsageError("--ref needs --est EST (or --odom ODOM), a TUM file to evaluate");
-    }
-    if (a.log_option_given) {
-      throw UsageError(
-          "--ref-channel/--est-channel/--odom-channel/--map-channel apply to a LOG, "
-          "not to TUM files");
-    }
+  if (!tum) return;
+  if (!a.ref_file) throw UsageError("--est/--odom need --ref REF (the reference TUM file)");
+  if (a.est_files.empty() && a.odom_files.empty()) {
+    throw UsageError("--ref needs --est EST (or --odom ODOM), a TUM file to evaluate");
   }
-  return a;
+  if (a.log_option_given) {
+    throw UsageError(
+        "--ref-channel/--est-channel/--odom-channel/--map-channel apply to a LOG, "
+        "not to TUM files");
+  }
 }
 
 // est.txt -> est.POSE_ODOMETRY.txt when several estimates share --write-tum.
@@ -126,8 +130,7 @@ fs::path tumPathFor(const fs::path& base, const std::string& name, bool several)
   return out;
 }
 
-int runTrajectory(const std::vector<std::string>& args, std::ostream& out) {
-  const TrajectoryArgs a = parseTrajectoryArgs(args);
+int runTrajectory(const TrajectoryArgs& a, std::ostream& out) {
   TrajectoryReport report;
   report.options = a.eval;
   std::vector<EstimateInput> inputs;
@@ -193,154 +196,150 @@ int runTrajectory(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
+ModeRun setUpTrajectory(CLI::App& app) {
+  auto a = std::make_shared<TrajectoryArgs>();
+  addTrajectoryOptions(app, *a);
+  return [a](std::ostream& out) {
+    checkTrajectoryArgs(*a);
+    return runTrajectory(*a, out);
+  };
+}
+
 // ---- --measurements -----------------------------------------------------
 
-int runMeasurements(const std::vector<std::string>& args, std::ostream& out) {
+struct MeasurementArgs {
   std::optional<fs::path> log;
   MeasurementLogOptions options;
   MeasurementEvalOptions eval;
   std::optional<fs::path> csv;
-  cli::ArgCursor cur(args);
-  while (!cur.done()) {
-    const std::string opt = cur.next();
-    if (opt == "--ref-channel") {
-      options.ref_channel = cur.value(opt);
-    } else if (opt == "--measurement-channel") {
-      options.measurement_channel = cur.value(opt);
-    } else if (opt == "--max-proj-err") {
-      options.prefilter.max_proj_err_rms_px = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--min-points") {
-      options.prefilter.min_num_points = static_cast<int>(cli::parsePositive(opt, cur.value(opt)));
-    } else if (opt == "--max-slope") {
-      options.prefilter.max_slope = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--rejudge") {
-      options.rejudge = true;
-    } else if (opt == "--max-gap") {
-      eval.max_gap = cli::parsePositive(opt, cur.value(opt));
-    } else if (opt == "--csv") {
-      csv = cur.value(opt);
-    } else if (!opt.empty() && opt[0] == '-') {
-      throw UsageError("unknown option '" + opt + "' for --measurements");
-    } else if (log) {
-      throw UsageError("more than one log given ('" + log->string() + "' and '" + opt + "')");
-    } else {
-      log = opt;
-    }
-  }
-  if (!log) throw UsageError("--measurements needs a LOG");
-  MeasurementLog m = readMeasurementLog(*log, options);
+};
+
+void addMeasurementOptions(CLI::App& app, MeasurementArgs& a) {
+  frontend::PrefilterParams& prefilter = a.options.prefilter;
+  app.add_option("log", a.log, "an LCM log");
+  app.add_option("--measurement-channel", a.options.measurement_channel,
+                 "vslam.visual_measurement_t")
+      ->capture_default_str();
+  app.add_option("--ref-channel", a.options.ref_channel, "ground truth")->capture_default_str();
+  app.add_option("--max-proj-err", prefilter.max_proj_err_rms_px,
+                 "pre-filter region for measurements without a verdict\n(the paper's): "
+                 "max RMS reprojection error, px")
+      ->check(positiveNumber())
+      ->capture_default_str();
+  app.add_option("--min-points", prefilter.min_num_points, "... min points")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-slope", prefilter.max_slope, "... max slope")
+      ->check(positiveNumber())
+      ->capture_default_str();
+  app.add_flag("--rejudge", a.options.rejudge, "apply that region to judged measurements too");
+  app.add_option("--max-gap", a.eval.max_gap, "max spacing of the ground truth around a stamp, s")
+      ->check(positiveNumber())
+      ->capture_default_str();
+  app.add_option("--csv", a.csv, "write every measurement with its truth and errors");
+}
+
+int runMeasurements(const MeasurementArgs& a, std::ostream& out) {
+  if (!a.log) throw UsageError("--measurements needs a LOG");
+  MeasurementLog m = readMeasurementLog(*a.log, a.options);
   MeasurementReport report =
-      evaluateMeasurements(m.reference, std::move(m.samples), m.creations, eval);
-  report.input = log->string();
+      evaluateMeasurements(m.reference, std::move(m.samples), m.creations, a.eval);
+  report.input = a.log->string();
   printMeasurementReport(out, report);
-  if (csv) {
-    writeMeasurementCsv(csv->string(), report);
-    log::info("wrote ", csv->string());
+  if (a.csv) {
+    writeMeasurementCsv(a.csv->string(), report);
+    log::info("wrote ", a.csv->string());
   }
   return kExitOk;
+}
+
+ModeRun setUpMeasurements(CLI::App& app) {
+  auto a = std::make_shared<MeasurementArgs>();
+  addMeasurementOptions(app, *a);
+  return [a](std::ostream& out) { return runMeasurements(*a, out); };
+}
+
+ModeRun setUpAppearance(CLI::App& app) {
+  auto a = std::make_shared<AppearanceEvalArgs>();
+  addAppearanceEvalOptions(app, *a);
+  return [a](std::ostream& out) { return runAppearanceEval(*a, out); };
 }
 
 // ---- modes ----------------------------------------------------------------
 
 struct Mode {
   const char* flag;
-  int (*run)(const std::vector<std::string>& args, std::ostream& out);
+  const char* description;
+  ModeRun (*set_up)(CLI::App& app);  // adds the mode's options, returns its run
 };
 
 const Mode kModes[] = {
-    {"--trajectory", runTrajectory},
-    {"--appearance", runAppearanceEval},
-    {"--measurements", runMeasurements},
+    {"--trajectory", "trajectories against a reference: ATE, RPE, TUM copies, plots (default)",
+     setUpTrajectory},
+    {"--appearance", "appearance SLAM against ground truth (Lee & Sowmya Figs. 8-11)",
+     setUpAppearance},
+    {"--measurements", "visual measurements against ground truth (vSLAM paper Table 1)",
+     setUpMeasurements},
 };
+
+// The mode's parser: its flag (accepted where it stands) and options.
+std::unique_ptr<CLI::App> modeApp(const Mode& mode, ModeRun* run) {
+  auto app =
+      std::make_unique<CLI::App>(std::string("vslam-eval ") + mode.flag + ": " + mode.description,
+                                 std::string("vslam-eval ") + mode.flag);
+  app->set_help_flag();  // runEvalCli prints the help of every mode
+  app->add_flag(mode.flag, "this mode");
+  *run = mode.set_up(*app);
+  return app;
+}
 
 }  // namespace
 
 void printEvalUsage(std::ostream& os) {
-  os << "usage: vslam-eval [MODE] INPUT [options]\n"
+  os << "usage: vslam-eval [MODE] INPUT [options]   (an option's value follows it, or "
+        "--key=value)\n"
         "\n"
-        "modes (default --trajectory):\n"
-        "  --trajectory            compare estimated trajectories with a reference: ATE, RPE,\n"
-        "                          TUM copies, plots\n"
-        "  --measurements LOG      accuracy of the visual measurements against ground truth\n"
-        "                          (vSLAM paper Table 1)\n"
-        "\n"
-        "--trajectory input, one of:\n"
-        "  LOG                     an LCM log\n"
-        "    --ref-channel CH      reference, vslam.ground_truth_pose_t (default GROUND_TRUTH)\n"
-        "    --est-channel CH      SLAM estimate, vslam.pose_estimate_t; repeatable\n"
-        "    --odom-channel CH     odometry-only estimate, vslam.pose_estimate_t or raw\n"
-        "                          vslam.odometry_t; repeatable\n"
-        "                          (neither given: POSE_ESTIMATE if present, and POSE_ODOMETRY,\n"
-        "                          else ODOMETRY, if present)\n"
-        "    --map-channel CH      landmarks to plot, vslam.map_t (default MAP, if present)\n"
-        "  --ref FILE --est FILE   TUM trajectory files 'timestamp tx ty tz qx qy qz qw';\n"
-        "    [--odom FILE]         --est and --odom repeatable\n"
-        "\n"
-        "--trajectory options:\n"
-        "  --max-diff S            association: max |t_ref - (t_est + offset)|, strictly less\n"
-        "                          (default 0.02 s)\n"
-        "  --offset S              seconds added to the estimate's stamps (default 0)\n"
-        "  --align none|se2|se3|sim3|origin  alignment before ATE (default se3, as "
-        "evaluate_ate.py;\n"
-        "                      origin: first poses made to coincide, evo --align_origin)\n"
-        "  --delta D               RPE pair spacing (default 1)\n"
-        "  --delta-unit s|m        ...in seconds or metres travelled (default s)\n"
-        "  --write-tum FILE        write the estimate(s) as TUM (several: FILE.<name>.ext)\n"
-        "  --write-tum-ref FILE    write the reference as TUM\n"
-        "  --plot-dir DIR          write DIR/trajectory.png and DIR/error.png\n"
-        "  --plot-size WxH         plot size in pixels (default 1000x800)\n"
-        "  --json FILE             write the results as JSON\n"
-        "\n"
-        "--measurements options:\n"
-        "  --measurement-channel CH  vslam.visual_measurement_t (default VISUAL_MEASUREMENT)\n"
-        "  --ref-channel CH        ground truth (default GROUND_TRUTH)\n"
-        "  --max-proj-err PX, --min-points N, --max-slope S\n"
-        "                          pre-filter region for measurements without a verdict\n"
-        "                          (default 3.0, 10, 0.1: the paper's)\n"
-        "  --rejudge               apply that region to judged measurements too\n"
-        "  --max-gap S             max spacing of the ground truth around a stamp (default 0.1)\n"
-        "  --csv FILE              write every measurement with its truth and errors\n"
-        "\n"
+        "modes:\n";
+  for (const auto& mode : kModes) {
+    os << "  " << std::left << std::setw(16) << mode.flag << mode.description << "\n";
+  }
+  os << "\n"
         "Prints a table to stdout. Exit codes: 0 ok, 1 data problem (unreadable or malformed\n"
         "input, missing channel, no associated poses, damaged log), 2 bad command line.\n"
         "Definitions: docs/evaluation.md.\n";
-  os << "\n";
-  printAppearanceUsage(os);
+  for (const auto& mode : kModes) {
+    ModeRun run;
+    os << "\n" << modeApp(mode, &run)->help();
+  }
 }
 
 int runEvalCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Mode* mode = nullptr;
-  std::vector<std::string> rest;
   for (const auto& a : args) {
     if (a == "--help" || a == "-h") {
       printEvalUsage(out);
       return kExitOk;
     }
-    const Mode* m = nullptr;
     for (const auto& candidate : kModes) {
-      if (a == candidate.flag) m = &candidate;
+      if (a != candidate.flag || mode == &candidate) continue;
+      if (mode) {
+        err << "vslam-eval: " << mode->flag << " and " << candidate.flag
+            << " are different modes; give one\n";
+        return kExitUsage;
+      }
+      mode = &candidate;
     }
-    if (!m) {
-      rest.push_back(a);
-      continue;
-    }
-    if (mode && mode != m) {
-      err << "vslam-eval: " << mode->flag << " and " << m->flag
-          << " are different modes; give one\n";
-      return kExitUsage;
-    }
-    mode = m;
   }
   if (!mode) mode = &kModes[0];
   try {
-    return mode->run(rest, out);
+    ModeRun run;
+    const auto app = modeApp(*mode, &run);
+    if (const auto code = parseCommandLine(*app, "vslam-eval", args, out, err)) return *code;
+    return run(out);
   } catch (const UsageError& e) {
     err << "vslam-eval: " << e.what() << " (see --help)\n";
     return kExitUsage;
-  } catch (const DataError& e) {
-    err << "vslam-eval: error: " << e.what() << "\n";
-    return kExitDataError;
-  } catch (const std::exception& e) {
+  } catch (const std::exception& e) {  // DataError and any other failure on the data
     err << "vslam-eval: error: " << e.what() << "\n";
     return kExitDataError;
   }

@@ -1,7 +1,7 @@
 #pragma once
 // The command line of vslam-eval, as a function so tests can run it in
-// process. Modes select what is evaluated; today only --trajectory (the
-// default); --measurements and --appearance are to come.
+// process. A mode flag selects what is evaluated: --trajectory (the
+// default), --appearance or --measurements; each mode has its own options.
 //
 // Returns the exit code: 0 ok, 1 data problem, 2 bad command line.
 

@@ -9,6 +9,5 @@
 namespace vslam::eval {
 
 int runImportCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
-void printImportUsage(std::ostream& os);
 
 }  // namespace vslam::eval

@@ -6,7 +6,7 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "eval/errors.hpp"
-#include "eval/log_reader.hpp"
+#include "eval/log_events.hpp"
 
 namespace vslam::eval {
 

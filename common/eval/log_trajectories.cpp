@@ -11,7 +11,7 @@
 #include <vslam/pose_estimate_t.hpp>
 
 #include "eval/errors.hpp"
-#include "eval/log_reader.hpp"
+#include "eval/log_events.hpp"
 #include "util/log.hpp"
 
 namespace vslam::eval {

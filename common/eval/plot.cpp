@@ -69,6 +69,148 @@ void putVerticalText(cv::Mat& img, const std::string& text, cv::Point centre, do
   if (dst.area() > 0) rotated(cv::Rect(0, 0, dst.width, dst.height)).copyTo(img(dst));
 }
 
+// The plot area in the image and the data ranges it shows.
+struct PlotAxes {
+  cv::Rect area;
+  Range xr, yr;
+  // Data to pixels, relative to the plot area.
+  cv::Point2d toPixel(const cv::Point2d& p) const {
+    return cv::Point2d((p.x - xr.lo) / xr.span() * area.width,
+                       area.height - (p.y - yr.lo) / yr.span() * area.height);
+  }
+};
+
+// Ranges that hold every finite point with a margin (unit spans for
+// degenerate data; metres alike on both axes with equal_aspect).
+PlotAxes fitAxes(const std::vector<PlotSeries>& series, cv::Size size, bool equal_aspect,
+                 bool y_from_zero) {
+  const int left = 80, right = 20, top = 44, bottom = 60;
+  PlotAxes axes;
+  axes.area = cv::Rect(left, top, size.width - left - right, size.height - top - bottom);
+  const cv::Rect& area = axes.area;
+  Range& xr = axes.xr;
+  Range& yr = axes.yr;
+  for (const auto& s : series) {
+    for (const auto& p : s.points) {
+      if (std::isfinite(p.x) && std::isfinite(p.y)) {
+        xr.add(p.x);
+        yr.add(p.y);
+      }
+    }
+  }
+  if (!xr.valid()) xr.lo = 0, xr.hi = 1;
+  if (!yr.valid()) yr.lo = 0, yr.hi = 1;
+  if (y_from_zero) yr.lo = std::min(0.0, yr.lo);
+  // Degenerate ranges (a single point, a straight line) get a unit span.
+  if (xr.span() <= 0) xr.lo -= 0.5, xr.hi += 0.5;
+  if (yr.span() <= 0) yr.hi += 1.0, yr.lo -= y_from_zero ? 0.0 : 1.0;
+  {
+    const double px = 0.04 * xr.span(), py = 0.04 * yr.span();
+    xr.lo -= px, xr.hi += px;
+    yr.hi += py;
+    if (!(y_from_zero && yr.lo == 0)) yr.lo -= py;
+  }
+  if (equal_aspect) {
+    const double ppm = std::min(area.width / xr.span(), area.height / yr.span());
+    const double wx = area.width / ppm, wy = area.height / ppm;
+    const double cx = xr.mid(), cy = yr.mid();
+    xr.lo = cx - wx / 2, xr.hi = cx + wx / 2;
+    yr.lo = cy - wy / 2, yr.hi = cy + wy / 2;
+  }
+  return axes;
+}
+
+void drawGrid(cv::Mat& img, const PlotAxes& axes) {
+  const cv::Rect& area = axes.area;
+  const Range& xr = axes.xr;
+  const Range& yr = axes.yr;
+  const double xstep = niceTickStep(xr.span(), std::max(2, area.width / 110));
+  const double ystep = niceTickStep(yr.span(), std::max(2, area.height / 70));
+  for (double x = std::ceil(xr.lo / xstep) * xstep; x <= xr.hi + 1e-9 * xstep; x += xstep) {
+    const int px = area.x + static_cast<int>(std::lround(axes.toPixel({x, yr.lo}).x));
+    cv::line(img, {px, area.y}, {px, area.y + area.height}, kGrid, 1);
+    cv::line(img, {px, area.y + area.height}, {px, area.y + area.height + 5}, kFrame, 1);
+    const std::string label = tickLabel(x, xstep);
+    const cv::Size ts = textSize(label, kTickFontScale);
+    putText(img, label, {px - ts.width / 2, area.y + area.height + 8 + ts.height}, kTickFontScale);
+  }
+  for (double y = std::ceil(yr.lo / ystep) * ystep; y <= yr.hi + 1e-9 * ystep; y += ystep) {
+    const int py = area.y + static_cast<int>(std::lround(axes.toPixel({xr.lo, y}).y));
+    cv::line(img, {area.x, py}, {area.x + area.width, py}, kGrid, 1);
+    cv::line(img, {area.x - 5, py}, {area.x, py}, kFrame, 1);
+    const std::string label = tickLabel(y, ystep);
+    const cv::Size ts = textSize(label, kTickFontScale);
+    putText(img, label, {area.x - 8 - ts.width, py + ts.height / 2}, kTickFontScale);
+  }
+}
+
+// The data, clipped to the plot area by drawing into its ROI.
+void drawSeries(cv::Mat& img, const PlotAxes& axes, const std::vector<PlotSeries>& series) {
+  cv::Mat roi = img(axes.area);
+  for (const auto& s : series) {
+    if (s.style == PlotSeries::Style::kLine) {
+      std::vector<cv::Point> pts;
+      pts.reserve(s.points.size());
+      for (const auto& p : s.points) {
+        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+        const cv::Point2d q = axes.toPixel(p) * kSubpixel;
+        pts.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
+      }
+      if (pts.size() == 1) {
+        cv::circle(roi, pts[0], static_cast<int>(s.thickness * kSubpixel), s.color, cv::FILLED,
+                   cv::LINE_AA, kShift);
+      } else if (pts.size() > 1) {
+        cv::polylines(roi, pts, false, s.color, s.thickness, cv::LINE_AA, kShift);
+      }
+    } else {
+      for (const auto& p : s.points) {
+        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+        const cv::Point2d q = axes.toPixel(p) * kSubpixel;
+        cv::circle(roi, {static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y))},
+                   static_cast<int>(s.radius * kSubpixel), s.color, s.thickness, cv::LINE_AA,
+                   kShift);
+      }
+    }
+  }
+}
+
+void drawTitleAndLabels(cv::Mat& img, const cv::Rect& area, const std::string& title,
+                        const std::string& x_label, const std::string& y_label) {
+  const cv::Size ts = textSize(title, kTitleFontScale);
+  putText(img, title, {(img.cols - ts.width) / 2, 10 + ts.height}, kTitleFontScale);
+  const cv::Size xs = textSize(x_label, kLabelFontScale);
+  putText(img, x_label, {area.x + (area.width - xs.width) / 2, img.rows - 12}, kLabelFontScale);
+  putVerticalText(img, y_label, {16, area.y + area.height / 2}, kLabelFontScale);
+}
+
+// The labelled series, top-left inside the plot area.
+void drawLegend(cv::Mat& img, const cv::Rect& area, const std::vector<PlotSeries>& series) {
+  std::vector<const PlotSeries*> entries;
+  for (const auto& s : series) {
+    if (!s.label.empty()) entries.push_back(&s);
+  }
+  if (entries.empty()) return;
+  const int line_h = 20, sample_w = 30;
+  int text_w = 0;
+  for (const auto* s : entries) text_w = std::max(text_w, textSize(s->label, kTickFontScale).width);
+  const cv::Rect box(area.x + 10, area.y + 10, sample_w + text_w + 24,
+                     static_cast<int>(entries.size()) * line_h + 10);
+  cv::rectangle(img, box, kWhite, cv::FILLED);
+  cv::rectangle(img, box, kFrame, 1);
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const int y = box.y + 5 + static_cast<int>(i) * line_h + line_h / 2;
+    const int x = box.x + 8;
+    if (entries[i]->style == PlotSeries::Style::kLine) {
+      cv::line(img, {x, y}, {x + sample_w, y}, entries[i]->color, entries[i]->thickness,
+               cv::LINE_AA);
+    } else {
+      cv::circle(img, {x + sample_w / 2, y}, std::min(entries[i]->radius, 7), entries[i]->color,
+                 entries[i]->thickness, cv::LINE_AA);
+    }
+    putText(img, entries[i]->label, {x + sample_w + 8, y + 5}, kTickFontScale);
+  }
+}
+
 }  // namespace
 
 double niceTickStep(double range, int target) {
@@ -88,128 +230,12 @@ Figure::Figure(cv::Size size, std::string title, std::string x_label, std::strin
 
 cv::Mat Figure::render() const {
   cv::Mat img(size_, CV_8UC3, kWhite);
-  const int left = 80, right = 20, top = 44, bottom = 60;
-  const cv::Rect area(left, top, size_.width - left - right, size_.height - top - bottom);
-
-  Range xr, yr;
-  for (const auto& s : series_) {
-    for (const auto& p : s.points) {
-      if (std::isfinite(p.x) && std::isfinite(p.y)) {
-        xr.add(p.x);
-        yr.add(p.y);
-      }
-    }
-  }
-  if (!xr.valid()) xr.lo = 0, xr.hi = 1;
-  if (!yr.valid()) yr.lo = 0, yr.hi = 1;
-  if (y_from_zero_) yr.lo = std::min(0.0, yr.lo);
-  // Degenerate ranges (a single point, a straight line) get a unit span.
-  if (xr.span() <= 0) xr.lo -= 0.5, xr.hi += 0.5;
-  if (yr.span() <= 0) yr.hi += 1.0, yr.lo -= y_from_zero_ ? 0.0 : 1.0;
-  {
-    const double px = 0.04 * xr.span(), py = 0.04 * yr.span();
-    xr.lo -= px, xr.hi += px;
-    yr.hi += py;
-    if (!(y_from_zero_ && yr.lo == 0)) yr.lo -= py;
-  }
-  if (equal_aspect_) {
-    const double ppm = std::min(area.width / xr.span(), area.height / yr.span());
-    const double wx = area.width / ppm, wy = area.height / ppm;
-    const double cx = xr.mid(), cy = yr.mid();
-    xr.lo = cx - wx / 2, xr.hi = cx + wx / 2;
-    yr.lo = cy - wy / 2, yr.hi = cy + wy / 2;
-  }
-  auto toPixel = [&](const cv::Point2d& p) {  // relative to the plot area
-    return cv::Point2d((p.x - xr.lo) / xr.span() * area.width,
-                       area.height - (p.y - yr.lo) / yr.span() * area.height);
-  };
-
-  // Grid and tick labels.
-  const double xstep = niceTickStep(xr.span(), std::max(2, area.width / 110));
-  const double ystep = niceTickStep(yr.span(), std::max(2, area.height / 70));
-  for (double x = std::ceil(xr.lo / xstep) * xstep; x <= xr.hi + 1e-9 * xstep; x += xstep) {
-    const int px = area.x + static_cast<int>(std::lround(toPixel({x, yr.lo}).x));
-    cv::line(img, {px, area.y}, {px, area.y + area.height}, kGrid, 1);
-    cv::line(img, {px, area.y + area.height}, {px, area.y + area.height + 5}, kFrame, 1);
-    const std::string label = tickLabel(x, xstep);
-    const cv::Size ts = textSize(label, kTickFontScale);
-    putText(img, label, {px - ts.width / 2, area.y + area.height + 8 + ts.height}, kTickFontScale);
-  }
-  for (double y = std::ceil(yr.lo / ystep) * ystep; y <= yr.hi + 1e-9 * ystep; y += ystep) {
-    const int py = area.y + static_cast<int>(std::lround(toPixel({xr.lo, y}).y));
-    cv::line(img, {area.x, py}, {area.x + area.width, py}, kGrid, 1);
-    cv::line(img, {area.x - 5, py}, {area.x, py}, kFrame, 1);
-    const std::string label = tickLabel(y, ystep);
-    const cv::Size ts = textSize(label, kTickFontScale);
-    putText(img, label, {area.x - 8 - ts.width, py + ts.height / 2}, kTickFontScale);
-  }
-
-  // Data, clipped to the plot area by drawing into its ROI.
-  cv::Mat roi = img(area);
-  for (const auto& s : series_) {
-    if (s.style == PlotSeries::Style::kLine) {
-      std::vector<cv::Point> pts;
-      pts.reserve(s.points.size());
-      for (const auto& p : s.points) {
-        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-        const cv::Point2d q = toPixel(p) * kSubpixel;
-        pts.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
-      }
-      if (pts.size() == 1) {
-        cv::circle(roi, pts[0], static_cast<int>(s.thickness * kSubpixel), s.color, cv::FILLED,
-                   cv::LINE_AA, kShift);
-      } else if (pts.size() > 1) {
-        cv::polylines(roi, pts, false, s.color, s.thickness, cv::LINE_AA, kShift);
-      }
-    } else {
-      for (const auto& p : s.points) {
-        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-        const cv::Point2d q = toPixel(p) * kSubpixel;
-        cv::circle(roi, {static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y))},
-                   static_cast<int>(s.radius * kSubpixel), s.color, s.thickness, cv::LINE_AA,
-                   kShift);
-      }
-    }
-  }
-  cv::rectangle(img, area, kFrame, 1);
-
-  // Title and axis labels.
-  {
-    const cv::Size ts = textSize(title_, kTitleFontScale);
-    putText(img, title_, {(size_.width - ts.width) / 2, 10 + ts.height}, kTitleFontScale);
-    const cv::Size xs = textSize(x_label_, kLabelFontScale);
-    putText(img, x_label_, {area.x + (area.width - xs.width) / 2, size_.height - 12},
-            kLabelFontScale);
-    putVerticalText(img, y_label_, {16, area.y + area.height / 2}, kLabelFontScale);
-  }
-
-  // Legend, top-left inside the plot area.
-  std::vector<const PlotSeries*> entries;
-  for (const auto& s : series_) {
-    if (!s.label.empty()) entries.push_back(&s);
-  }
-  if (!entries.empty()) {
-    const int line_h = 20, sample_w = 30;
-    int text_w = 0;
-    for (const auto* s : entries)
-      text_w = std::max(text_w, textSize(s->label, kTickFontScale).width);
-    const cv::Rect box(area.x + 10, area.y + 10, sample_w + text_w + 24,
-                       static_cast<int>(entries.size()) * line_h + 10);
-    cv::rectangle(img, box, kWhite, cv::FILLED);
-    cv::rectangle(img, box, kFrame, 1);
-    for (std::size_t i = 0; i < entries.size(); ++i) {
-      const int y = box.y + 5 + static_cast<int>(i) * line_h + line_h / 2;
-      const int x = box.x + 8;
-      if (entries[i]->style == PlotSeries::Style::kLine) {
-        cv::line(img, {x, y}, {x + sample_w, y}, entries[i]->color, entries[i]->thickness,
-                 cv::LINE_AA);
-      } else {
-        cv::circle(img, {x + sample_w / 2, y}, std::min(entries[i]->radius, 7), entries[i]->color,
-                   entries[i]->thickness, cv::LINE_AA);
-      }
-      putText(img, entries[i]->label, {x + sample_w + 8, y + 5}, kTickFontScale);
-    }
-  }
+  const PlotAxes axes = fitAxes(series_, size_, equal_aspect_, y_from_zero_);
+  drawGrid(img, axes);
+  drawSeries(img, axes, series_);
+  cv::rectangle(img, axes.area, kFrame, 1);
+  drawTitleAndLabels(img, axes.area, title_, x_label_, y_label_);
+  drawLegend(img, axes.area, series_);
   return img;
 }
 

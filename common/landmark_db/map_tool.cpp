@@ -1,12 +1,14 @@
 #include "landmark_db/map_tool.hpp"
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
-#include <set>
+#include <optional>
 
 #include "config/stack_config.hpp"
 #include "eval/plot.hpp"
@@ -18,19 +20,8 @@ constexpr int kExitOk = 0;
 constexpr int kExitDamaged = 1;
 constexpr int kExitUsage = 2;
 
-const char* kUsage =
-    "usage: vslam-map COMMAND FILE [options]\n"
-    "  info      counts, ids, file size, revision, regions\n"
-    "  list      one CSV line per landmark\n"
-    "  regions   the map's regions (segmentation)\n"
-    "  check     SQLite integrity check (exit 1 if damaged)\n"
-    "  prune     remove landmarks by the configured policy [--dry-run]\n"
-    "  plot      --out DIR: landmarks.png (Fig. 6), measurements_histogram.png (Fig. 10)\n"
-    "options: --config FILE (default config/vslam.yaml) --instance NAME (default landmark_db)\n"
-    "         --now-utime T (ages for prune; default: the newest time in the file)\n";
-
 struct Options {
-  std::string command, file, out, config = "config/vslam.yaml", instance = "landmark_db";
+  std::string command, file, out, config, instance = "landmark_db";
   bool dry_run = false;
   Utime now = 0;
 };
@@ -199,54 +190,53 @@ void plot(LandmarkDatabase& db, const std::filesystem::path& dir) {
   }
 }
 
+// The command line into o; the exit code when the tool should stop here.
+std::optional<int> parseMapToolArgs(const std::vector<std::string>& args, Options& o) {
+  CLI::App app{"vslam-map: inspects and maintains a landmark map file (no LCM)", "vslam-map"};
+  app.footer("Exit codes: 0 ok, 1 damaged or failing file, 2 usage or configuration error.");
+  app.add_option("command", o.command,
+                 "info: counts, ids, file size, revision, regions\n"
+                 "list: one CSV line per landmark\n"
+                 "regions: the map's regions (segmentation)\n"
+                 "check: SQLite integrity check (exit 1 if damaged)\n"
+                 "prune: remove landmarks by the configured policy [--dry-run]\n"
+                 "plot: --out DIR: landmarks.png (Fig. 6),\n"
+                 "measurements_histogram.png (Fig. 10)")
+      ->required()
+      ->check(CLI::IsMember({"info", "list", "regions", "check", "prune", "plot"}));
+  app.add_option("file", o.file, "the map file")->required();
+  app.add_option("--out", o.out, "plot: the folder to write to");
+  app.add_option("--config", o.config,
+                 "stack configuration: the prune policy and region size\n"
+                 "(default $VSLAM_CONFIG, else config/vslam.yaml)");
+  app.add_option("--instance", o.instance, "the landmark database's process instance")
+      ->capture_default_str();
+  app.add_flag("--dry-run", o.dry_run, "prune: list what would be removed, remove nothing");
+  app.add_option("--now-utime", o.now, "ages for prune (default: the newest time in the file)");
+  try {
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
+    app.parse(reversed);
+    if (o.command == "plot" && o.out.empty()) throw CLI::ValidationError("plot needs --out DIR");
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
+      return kExitOk;
+    }
+    std::cerr << "vslam-map: " << e.what() << " (see --help)\n";
+    return kExitUsage;
+  }
+  if (o.config.empty()) {
+    const char* env = std::getenv("VSLAM_CONFIG");
+    o.config = env && *env ? env : "config/vslam.yaml";
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 int runMapTool(const std::vector<std::string>& args) {
   Options o;
-  std::vector<std::string> positional;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
-      return args[++i];
-    };
-    try {
-      if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return kExitOk;
-      } else if (a == "--out") {
-        o.out = value();
-      } else if (a == "--config") {
-        o.config = value();
-      } else if (a == "--instance") {
-        o.instance = value();
-      } else if (a == "--dry-run") {
-        o.dry_run = true;
-      } else if (a == "--now-utime") {
-        o.now = std::stoll(value());
-      } else if (!a.empty() && a[0] == '-') {
-        std::cerr << "vslam-map: unknown option " << a << "\n" << kUsage;
-        return kExitUsage;
-      } else {
-        positional.push_back(a);
-      }
-    } catch (const std::exception& e) {
-      std::cerr << "vslam-map: " << e.what() << "\n" << kUsage;
-      return kExitUsage;
-    }
-  }
-  static const std::set<std::string> kCommands = {"info",  "list",  "regions",
-                                                  "check", "prune", "plot"};
-  if (positional.size() != 2 || kCommands.count(positional[0]) == 0) {
-    std::cerr << kUsage;
-    return kExitUsage;
-  }
-  o.command = positional[0];
-  o.file = positional[1];
-  if (o.command == "plot" && o.out.empty()) {
-    std::cerr << "vslam-map: plot needs --out DIR\n";
-    return kExitUsage;
-  }
+  if (const auto code = parseMapToolArgs(args, o)) return *code;
   DatabaseParams params;
   try {
     params = paramsFromConfig(o);

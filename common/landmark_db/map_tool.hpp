@@ -8,7 +8,8 @@
 //   vslam-map prune FILE [--dry-run]     remove landmarks by the configured policy
 //   vslam-map plot FILE --out DIR        landmarks.png (paper Fig. 6),
 //                                        measurements_histogram.png (Fig. 10)
-// Options: --config FILE (default config/vslam.yaml) --instance NAME (default
+// Options (a value follows its option, or --key=value): --config FILE
+// (default $VSLAM_CONFIG, else config/vslam.yaml) --instance NAME (default
 // landmark_db) give the prune policy and region size; --now-utime T judges
 // ages at T (default: the newest time in the file).
 // Exit codes: 0 ok, 1 damaged or failing file, 2 usage or configuration error.

@@ -460,6 +460,20 @@ TEST(CalibrateCli, BadCommandLinesExitTwoSayingWhy) {
   EXPECT_NE(err.find("--bogus"), std::string::npos) << err;
 }
 
+TEST(CalibrateCli, OptionValuesMayFollowAnEqualsSign) {
+  std::string err;
+  // Fully given as --key=value, the command line is good: the missing file is a data error.
+  EXPECT_EQ(runCli({"--chessboard=9x6", "--square=0.025", "--out=" + tempFile("eq.yml").string(),
+                    "/nonexistent/left01.jpg"},
+                   &err),
+            1);
+  EXPECT_NE(err.find("/nonexistent/left01.jpg"), std::string::npos) << err;
+  EXPECT_EQ(runCli({"--chessboard=9y6", "--square=0.025", "--out=x.yml", "a.jpg"}, &err), 2);
+  EXPECT_NE(err.find("9y6"), std::string::npos) << err;
+  EXPECT_EQ(runCli({"--chessboard=9x6", "--square=nan", "--out=x.yml", "a.jpg"}, &err), 2);
+  EXPECT_NE(err.find("--square"), std::string::npos) << err;
+}
+
 TEST(CalibrateCli, MissingOrUnusableInputExitsOne) {
   std::string err;
   EXPECT_EQ(runCli({"--chessboard", "9x6", "--square", "0.025", "--out",

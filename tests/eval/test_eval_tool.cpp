@@ -319,6 +319,23 @@ TEST_F(EvalTool, TumFilesThroughTheProgram) {
   EXPECT_GT(readJson(json)["estimates"][0]["ate"]["translation_m"]["min"].num(), 2.9);
 }
 
+TEST_F(EvalTool, OptionValuesMayFollowAnEqualsSign) {
+  const fs::path log = dir_ / "run.lcmlog";
+  writeDriveLog(log, {});
+  const fs::path spaced = dir_ / "spaced.json", joined = dir_ / "joined.json";
+  ASSERT_EQ(
+      runCli({log.string(), "--align", "none", "--delta", "2", "--json", spaced.string()}).code, 0);
+  ASSERT_EQ(runCli({log.string(), "--align=none", "--delta=2", "--json=" + joined.string()}).code,
+            0);
+  EXPECT_EQ(vslam::test::fileBytes(spaced), vslam::test::fileBytes(joined));
+  // The value is checked as when it follows the option.
+  const auto bad = runCli({log.string(), "--max-diff=0"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_TRUE(contains(bad.err, "--max-diff")) << bad.err;
+  EXPECT_EQ(runCli({"--appearance", log.string(), "--action-length=-1"}).code, 2);
+  EXPECT_EQ(runCli({"--measurements", log.string(), "--max-gap=x"}).code, 2);
+}
+
 TEST_F(EvalTool, UsageErrorsExitWithCode2) {
   const fs::path log = dir_ / "run.lcmlog";
   writeDriveLog(log, {});

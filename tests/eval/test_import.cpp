@@ -542,6 +542,18 @@ TEST_F(Import, ImagesOfAnotherSizeThanTheRobotFileAreRefused) {
   EXPECT_TRUE(contains(p.output, "is 32x24")) << p.output;
 }
 
+TEST_F(Import, OptionValuesMayFollowAnEqualsSign) {
+  writeDataset(data_, false);
+  const auto r = runImport({data_.string(), "--calibration=" + (data_ / "calib.yml").string(),
+                            "--out=" + log_.string(), "--encoding=jpeg", "--resize=32x24"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "(jpeg, 32x24)")) << r.out;
+  EXPECT_EQ(runImport({data_.string(), "--calibration=" + (data_ / "calib.yml").string(),
+                       "--out=" + log_.string(), "--resize=32"})
+                .code,
+            2);
+}
+
 TEST_F(Import, ProgramExitCodes) {
   writeDataset(data_, false);
   auto r = runProgram("vslam-import", {data_.string(), "--out", log_.string()});

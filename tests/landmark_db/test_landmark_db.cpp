@@ -9,6 +9,7 @@
 #include <set>
 
 #include "landmark_db/landmark_database.hpp"
+#include "landmark_db/map_tool.hpp"
 #include "landmark_db_test_util.hpp"
 #include "support/test_logs.hpp"
 
@@ -382,4 +383,25 @@ TEST_F(LandmarkDbTest, MapPosesFromTheBackendMoveLandmarksBetweenRegions) {
   auto reopened = openDb(dir_ / "map.vslam-map", p);
   EXPECT_EQ(reopened->info(r.id)->pose_source, PoseSource::kMap);
   EXPECT_NEAR(reopened->info(r.id)->map_pose.x, -3.0, 1e-12);
+}
+
+// vslam-map's command line: option values after the option or as
+// --key=value, the stack config from --config or $VSLAM_CONFIG.
+TEST_F(LandmarkDbTest, MapToolReadsOptionsAndTheConfigFromTheEnvironment) {
+  const fs::path file = dir_ / "map.vslam-map";
+  { openDb(file)->propose(syntheticInfo("forward", 1, kT0, {}), syntheticStructure(20, 1)); }
+  const std::string config = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
+  ::unsetenv("VSLAM_CONFIG");
+  EXPECT_EQ(runMapTool({"check", file.string(), "--config", config}), 0);
+  EXPECT_EQ(runMapTool({"check", file.string(), "--config=" + config}), 0);
+  EXPECT_EQ(runMapTool({"info", file.string(), "--config=" + config, "--instance=landmark_db"}), 0);
+  EXPECT_EQ(runMapTool({"check", file.string(), "--config=/nonexistent/vslam.yaml"}), 2);
+  ::setenv("VSLAM_CONFIG", "/nonexistent/vslam.yaml", 1);
+  EXPECT_EQ(runMapTool({"check", file.string()}), 2);
+  ::setenv("VSLAM_CONFIG", config.c_str(), 1);
+  EXPECT_EQ(runMapTool({"check", file.string()}), 0);
+  ::unsetenv("VSLAM_CONFIG");
+  EXPECT_EQ(runMapTool({"bogus", file.string(), "--config=" + config}), 2);
+  EXPECT_EQ(runMapTool({"plot", file.string(), "--config=" + config}), 2);  // needs --out
+  EXPECT_EQ(runMapTool({"prune", file.string(), "--now-utime=soon", "--config=" + config}), 2);
 }

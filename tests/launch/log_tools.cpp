@@ -28,7 +28,7 @@
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
 
-#include "eval/log_reader.hpp"
+#include "eval/log_events.hpp"
 #include "stages/image_gray.hpp"
 #include "util/statistics.hpp"
 

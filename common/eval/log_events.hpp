@@ -1,8 +1,8 @@
 #pragma once
-// Reading an LCM log that must be intact, for the evaluation tools: every
-// byte belongs to an event (the LCM reader silently skips garbage; here it is
-// a DataError naming the byte offset), the tail is complete, and each message
-// decodes as the type its fingerprint says.
+// The events of an LCM log for the evaluation tools, which need it intact:
+// read through bus::LogReader in its strict mode (every byte belongs to an
+// event, the tail is complete), with its errors as DataError, and each
+// message decoded as the type its fingerprint says.
 
 #include <cstdint>
 #include <filesystem>

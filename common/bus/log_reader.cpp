@@ -1,0 +1,118 @@
+#include "bus/log_reader.hpp"
+
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include "util/log.hpp"
+
+namespace vslam::bus {
+namespace {
+
+// Bytes of an event's framing: sync word, event number, timestamp, channel
+// length, data length (lcm_eventlog format).
+constexpr long kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
+
+// Position of the next LCM event sync word (0xEDA1DA01, big-endian) at or
+// after `from`, or -1.
+long findNextSyncWord(FILE* file, long from) {
+  if (from < 0 || std::fseek(file, from, SEEK_SET) != 0) return -1;
+  const unsigned char sync[4] = {0xED, 0xA1, 0xDA, 0x01};
+  unsigned char window[4] = {0, 0, 0, 0};
+  long pos = from;
+  int c;
+  while ((c = std::fgetc(file)) != EOF) {
+    window[0] = window[1];
+    window[1] = window[2];
+    window[2] = window[3];
+    window[3] = static_cast<unsigned char>(c);
+    ++pos;
+    if (pos - from >= 4 && std::memcmp(window, sync, 4) == 0) return pos - 4;
+  }
+  return -1;
+}
+
+}  // namespace
+
+LogReader::LogReader(const std::filesystem::path& log, LogDamage on_damage)
+    : name_(log.string()), on_damage_(on_damage) {
+  std::error_code ec;
+  if (!std::filesystem::exists(log, ec)) throw LogError(name_ + ": no such file");
+  if (std::filesystem::is_directory(log, ec)) throw LogError(name_ + ": is a directory, not a log");
+  file_ = std::make_unique<lcm::LogFile>(name_, "r");
+  if (!file_->good()) throw LogError(name_ + ": cannot open the log for reading");
+  fp_ = file_->getFilePtr();
+  end_of_last_event_ = std::ftell(fp_);
+}
+
+LogReader::~LogReader() = default;
+
+const lcm::LogEvent* LogReader::next() {
+  while (!at_end_) {
+    const lcm::LogEvent* ev = file_->readNextEvent();
+    if (!ev) {
+      // LCM's reader stops at a damaged event header.
+      if (on_damage_ == LogDamage::kSkip && skipToNextEvent()) continue;
+      finish();
+      return nullptr;
+    }
+    const long end = std::ftell(fp_);
+    const long size = kEventHeaderBytes + static_cast<long>(ev->channel.size()) + ev->datalen;
+    if (on_damage_ == LogDamage::kThrow && end - end_of_last_event_ != size) {
+      std::ostringstream os;
+      os << name_ << " is damaged: " << (end - end_of_last_event_ - size) << " bytes at byte "
+         << end_of_last_event_ << " are not an LCM event (before event " << ev->eventnum << " on "
+         << ev->channel << ")";
+      throw LogError(os.str());
+    }
+    event_offset_ = end - size;
+    end_of_last_event_ = end;
+    ++stats_.events_read;
+    // lcm-logger numbers events consecutively: a gap is events lost to damage.
+    if (on_damage_ == LogDamage::kSkip && stats_.events_read > 1 &&
+        ev->eventnum > last_eventnum_ + 1) {
+      const int64_t gap = ev->eventnum - last_eventnum_ - 1;
+      stats_.events_missing += gap;
+      log::warn("input log ", name_, ": ", gap, " event(s) missing before event ", ev->eventnum,
+                "; continuing");
+    }
+    last_eventnum_ = ev->eventnum;
+    return ev;
+  }
+  return nullptr;
+}
+
+// Skips damaged bytes to the next sync word, so one bad event does not lose
+// the rest of the log; false if there is none.
+bool LogReader::skipToNextEvent() {
+  const long resume = findNextSyncWord(fp_, end_of_last_event_ + 1);
+  if (resume < 0) return false;
+  log::warn("input log ", name_, ": damaged data at bytes ", end_of_last_event_, "..", resume,
+            "; skipped to the next event");
+  stats_.bytes_skipped += resume - end_of_last_event_;
+  std::fseek(fp_, resume, SEEK_SET);
+  end_of_last_event_ = resume;
+  return true;
+}
+
+// readNextEvent returns null at the end and on a damaged tail alike; bytes
+// after the last complete event tell them apart.
+void LogReader::finish() {
+  at_end_ = true;
+  std::fseek(fp_, 0, SEEK_END);
+  const long file_size = std::ftell(fp_);
+  if (end_of_last_event_ < 0 || file_size <= end_of_last_event_) return;
+  stats_.tail_bytes = file_size - end_of_last_event_;
+  if (on_damage_ == LogDamage::kSkip) return;
+  std::ostringstream os;
+  if (stats_.events_read == 0) {
+    os << name_ << ": not an LCM log (no complete event in its " << file_size << " bytes)";
+  } else {
+    os << name_ << " is damaged: the last " << stats_.tail_bytes << " bytes (from byte "
+       << end_of_last_event_ << ", after " << stats_.events_read
+       << " events) are not a complete LCM event (cut or corrupt)";
+  }
+  throw LogError(os.str());
+}
+
+}  // namespace vslam::bus
