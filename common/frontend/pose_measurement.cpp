@@ -147,14 +147,6 @@ void planarSigmas(const Eigen::Isometry3d& creation_T_current, const Measurement
   m.sigma_theta_rad = std::sqrt(std::max(0.0, planar(2, 2)));
 }
 
-PoseMeasurementResult fail(PoseMeasurementResult r, MeasurementFailure f, std::string reason,
-                           Clock::time_point t0) {
-  r.failure = f;
-  r.reason = std::move(reason);
-  r.measurement.total_ms = msSince(t0);
-  return r;
-}
-
 }  // namespace
 
 MeasurementCamera MeasurementCamera::fromConfig(const config::CameraConfig& camera) {
@@ -217,164 +209,215 @@ OutOfPlane outOfPlane(const Eigen::Isometry3d& a_T_b) {
   return o;
 }
 
-PoseMeasurementResult measurePose(const std::vector<Eigen::Vector3d>& points_creation_robot,
-                                  const std::vector<Eigen::Vector2d>& observations_normalized,
-                                  const MeasurementCamera& camera,
-                                  const PoseMeasurementParams& params) {
-  const Clock::time_point t0 = Clock::now();
-  params.validate();
-  PoseMeasurementResult result;
-  PoseMeasurement& m = result.measurement;
-  const auto& points = points_creation_robot;
-  const auto& obs = observations_normalized;
+namespace {
 
-  if (points.size() != obs.size())
-    return fail(result, MeasurementFailure::kInvalidInput,
-                "points and observations differ in size (" + std::to_string(points.size()) +
-                    " vs " + std::to_string(obs.size()) + ")",
-                t0);
-  if (!(camera.fx > 0 && camera.fy > 0 && std::isfinite(camera.fx) && std::isfinite(camera.fy) &&
-        isFinite(camera.robot_T_camera)))
-    return fail(result, MeasurementFailure::kInvalidInput,
-                "camera focal length or extrinsics invalid", t0);
-  for (size_t i = 0; i < points.size(); ++i)
-    if (!points[i].allFinite() || !obs[i].allFinite())
-      return fail(result, MeasurementFailure::kInvalidInput,
-                  "non-finite correspondence " + std::to_string(i), t0);
-  const int n = static_cast<int>(points.size());
-  if (n < params.min_correspondences)
-    return fail(
-        result, MeasurementFailure::kTooFewCorrespondences,
-        std::to_string(n) + " correspondences, need " + std::to_string(params.min_correspondences),
-        t0);
+// One measurement, step by step: the state the steps share, and a step each.
+// A step that returns false has recorded in the result why it failed.
+class MeasurementSteps {
+ public:
+  MeasurementSteps(const std::vector<Eigen::Vector3d>& points_creation_robot,
+                   const std::vector<Eigen::Vector2d>& observations_normalized,
+                   const MeasurementCamera& camera, const PoseMeasurementParams& params,
+                   Clock::time_point t0)
+      : points_(points_creation_robot),
+        obs_(observations_normalized),
+        camera_(camera),
+        params_(params),
+        t0_(t0),
+        n_(static_cast<int>(points_.size())) {}
+
+  // Sizes agree, the camera and every correspondence are finite, and there
+  // are enough of them.
+  bool validInput() {
+    if (points_.size() != obs_.size())
+      return fail(MeasurementFailure::kInvalidInput, "points and observations differ in size (" +
+                                                         std::to_string(points_.size()) + " vs " +
+                                                         std::to_string(obs_.size()) + ")");
+    if (!(camera_.fx > 0 && camera_.fy > 0 && std::isfinite(camera_.fx) &&
+          std::isfinite(camera_.fy) && isFinite(camera_.robot_T_camera)))
+      return fail(MeasurementFailure::kInvalidInput, "camera focal length or extrinsics invalid");
+    for (size_t i = 0; i < points_.size(); ++i)
+      if (!points_[i].allFinite() || !obs_[i].allFinite())
+        return fail(MeasurementFailure::kInvalidInput,
+                    "non-finite correspondence " + std::to_string(i));
+    if (n_ < params_.min_correspondences)
+      return fail(MeasurementFailure::kTooFewCorrespondences,
+                  std::to_string(n_) + " correspondences, need " +
+                      std::to_string(params_.min_correspondences));
+    return true;
+  }
 
   // (1) RANSAC PnP. Image points are the normalized coordinates scaled by the
   // focal lengths (pixel offsets from the principal point) with K =
   // diag(fx, fy, 1) and no distortion: the same geometry as normalized
   // coordinates with an identity K, but OpenCV's threshold is then exactly
   // ransac_threshold_px.
-  cv::Mat object(n, 3, CV_64F), image(n, 2, CV_64F);
-  for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) object.at<double>(i, k) = points[i][k];
-    image.at<double>(i, 0) = camera.fx * obs[i].x();
-    image.at<double>(i, 1) = camera.fy * obs[i].y();
+  bool ransacPnp() {
+    cv::Mat object(n_, 3, CV_64F), image(n_, 2, CV_64F);
+    for (int i = 0; i < n_; ++i) {
+      for (int k = 0; k < 3; ++k) object.at<double>(i, k) = points_[i][k];
+      image.at<double>(i, 0) = camera_.fx * obs_[i].x();
+      image.at<double>(i, 1) = camera_.fy * obs_[i].y();
+    }
+    const cv::Matx33d K(camera_.fx, 0, 0, 0, camera_.fy, 0, 0, 0, 1);
+    bool found = false;
+    try {
+      found = cv::solvePnPRansac(
+          object, image, K, cv::noArray(), rvec_, tvec_, false, params_.ransac_max_iterations,
+          static_cast<float>(params_.ransac_threshold_px), params_.ransac_confidence,
+          ransac_inliers_, cvFlag(params_.solver));
+    } catch (const cv::Exception& e) {
+      m_.ransac_ms = msSince(t0_);
+      return fail(MeasurementFailure::kRansacFailed,
+                  std::string("solvePnPRansac threw: ") + e.what());
+    }
+    m_.ransac_ms = msSince(t0_);
+    m_.ransac_inliers = static_cast<int>(ransac_inliers_.size());
+    m_.ransac_iteration_bound = ransacIterationBound(
+        static_cast<double>(m_.ransac_inliers) / n_, ransacSampleSize(params_.solver),
+        params_.ransac_confidence, params_.ransac_max_iterations);
+    if (!found || rvec_.empty() || tvec_.empty() || ransac_inliers_.empty())
+      return fail(MeasurementFailure::kRansacFailed, "solvePnPRansac found no pose");
+    if (m_.ransac_inliers < params_.min_inliers)
+      return fail(MeasurementFailure::kTooFewInliers,
+                  "RANSAC: " + std::to_string(m_.ransac_inliers) + " inliers, need " +
+                      std::to_string(params_.min_inliers));
+    return true;
   }
-  const cv::Matx33d K(camera.fx, 0, 0, 0, camera.fy, 0, 0, 0, 1);
-  cv::Mat rvec, tvec;
-  std::vector<int> ransac_inliers;
-  bool found = false;
-  try {
-    found = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false,
-                               params.ransac_max_iterations,
-                               static_cast<float>(params.ransac_threshold_px),
-                               params.ransac_confidence, ransac_inliers, cvFlag(params.solver));
-  } catch (const cv::Exception& e) {
-    m.ransac_ms = msSince(t0);
-    return fail(result, MeasurementFailure::kRansacFailed,
-                std::string("solvePnPRansac threw: ") + e.what(), t0);
-  }
-  m.ransac_ms = msSince(t0);
-  m.ransac_inliers = static_cast<int>(ransac_inliers.size());
-  m.ransac_iteration_bound = ransacIterationBound(
-      static_cast<double>(m.ransac_inliers) / n, ransacSampleSize(params.solver),
-      params.ransac_confidence, params.ransac_max_iterations);
-  if (!found || rvec.empty() || tvec.empty() || ransac_inliers.empty())
-    return fail(result, MeasurementFailure::kRansacFailed, "solvePnPRansac found no pose", t0);
-  if (m.ransac_inliers < params.min_inliers)
-    return fail(result, MeasurementFailure::kTooFewInliers,
-                "RANSAC: " + std::to_string(m.ransac_inliers) + " inliers, need " +
-                    std::to_string(params.min_inliers),
-                t0);
 
   // (2) Refinement: Levenberg-Marquardt on the 6-DOF camera_T_creation over
   // the inliers with a Huber loss, then re-select inliers among all pairs by
   // reprojection error; repeat while the inlier set changes.
-  const Clock::time_point t_refine = Clock::now();
-  double w[3], t[3];
-  rvec.convertTo(rvec, CV_64F);
-  tvec.convertTo(tvec, CV_64F);
-  for (int k = 0; k < 3; ++k) {
-    w[k] = rvec.at<double>(k);
-    t[k] = tvec.at<double>(k);
-  }
-  std::vector<double> sq;
-  std::vector<int> inliers;
-  const double max_sq = params.inlier_threshold_px * params.inlier_threshold_px;
-  // Start from the RANSAC inliers that the initial pose puts in front of the
-  // camera (the cost cannot be evaluated behind it).
-  squaredErrors(fromAngleAxis(w, t), points, obs, camera, params.min_depth_m, sq);
-  for (int i : ransac_inliers)
-    if (std::isfinite(sq[i])) inliers.push_back(i);
-  std::sort(inliers.begin(), inliers.end());
-
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = params.max_solver_iterations;
-  options.num_threads = 1;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
-  for (int round = 0; round < params.max_refinement_rounds; ++round) {
-    if (static_cast<int>(inliers.size()) < params.min_inliers) break;
-    ceres::Problem::Options problem_options;
-    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::HuberLoss loss(params.huber_px);
-    ceres::Problem problem(problem_options);
-    for (int i : inliers)
-      problem.AddResidualBlock(ReprojectionCost::Create(points[i], obs[i], camera.fx, camera.fy),
-                               &loss, w, t);
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    ++m.refinement_rounds;
-    m.solver_iterations += static_cast<int>(summary.iterations.size());
-    const Eigen::Isometry3d camera_T_creation = fromAngleAxis(w, t);
-    if (!summary.IsSolutionUsable() || !isFinite(camera_T_creation)) {
-      m.refine_ms = msSince(t_refine);
-      return fail(result, MeasurementFailure::kRefinementDiverged, "Ceres: " + summary.message, t0);
+  bool refine() {
+    const Clock::time_point t_refine = Clock::now();
+    startFromRansac();
+    const double max_sq = params_.inlier_threshold_px * params_.inlier_threshold_px;
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_QR;
+    options.max_num_iterations = params_.max_solver_iterations;
+    options.num_threads = 1;
+    options.logging_type = ceres::SILENT;
+    options.minimizer_progress_to_stdout = false;
+    for (int round = 0; round < params_.max_refinement_rounds; ++round) {
+      if (static_cast<int>(inliers_.size()) < params_.min_inliers) break;
+      ceres::Problem::Options problem_options;
+      problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+      ceres::HuberLoss loss(params_.huber_px);
+      ceres::Problem problem(problem_options);
+      for (int i : inliers_)
+        problem.AddResidualBlock(
+            ReprojectionCost::Create(points_[i], obs_[i], camera_.fx, camera_.fy), &loss, w_, t_);
+      ceres::Solver::Summary summary;
+      ceres::Solve(options, &problem, &summary);
+      ++m_.refinement_rounds;
+      m_.solver_iterations += static_cast<int>(summary.iterations.size());
+      const Eigen::Isometry3d camera_T_creation = fromAngleAxis(w_, t_);
+      if (!summary.IsSolutionUsable() || !isFinite(camera_T_creation)) {
+        m_.refine_ms = msSince(t_refine);
+        return fail(MeasurementFailure::kRefinementDiverged, "Ceres: " + summary.message);
+      }
+      squaredErrors(camera_T_creation, points_, obs_, camera_, params_.min_depth_m, sq_);
+      std::vector<int> reselected;
+      for (int i = 0; i < n_; ++i)
+        if (sq_[i] < max_sq) reselected.push_back(i);
+      const bool stable = reselected == inliers_;
+      inliers_.swap(reselected);
+      if (stable) break;
     }
-    squaredErrors(camera_T_creation, points, obs, camera, params.min_depth_m, sq);
-    std::vector<int> reselected;
-    for (int i = 0; i < n; ++i)
-      if (sq[i] < max_sq) reselected.push_back(i);
-    const bool stable = reselected == inliers;
-    inliers.swap(reselected);
-    if (stable) break;
+    m_.refine_ms = msSince(t_refine);
+    return enoughRefinedInliers();
   }
-  m.refine_ms = msSince(t_refine);
-  const int num_inliers = static_cast<int>(inliers.size());
-  // A refinement that loses most of the RANSAC consensus has left the basin
-  // RANSAC found: report it as divergence, not as a weak measurement.
-  if (2 * num_inliers < m.ransac_inliers)
-    return fail(result, MeasurementFailure::kRefinementDiverged,
-                "refinement kept " + std::to_string(num_inliers) + " of " +
-                    std::to_string(m.ransac_inliers) + " RANSAC inliers",
-                t0);
-  if (num_inliers < params.min_inliers)
-    return fail(result, MeasurementFailure::kTooFewInliers,
-                "refinement: " + std::to_string(num_inliers) + " inliers, need " +
-                    std::to_string(params.min_inliers),
-                t0);
 
   // (3) Robot pose now in the creation robot's frame:
   //   creation_T_camera = camera_T_creation^-1
-  //   creation_T_current_robot = creation_T_camera * camera_T_robot.
-  const Eigen::Isometry3d camera_T_creation = fromAngleAxis(w, t);
-  m.creation_T_current_robot = camera_T_creation.inverse() * camera.robot_T_camera.inverse();
-  m.relative = planarPose(m.creation_T_current_robot);
-  const OutOfPlane o = outOfPlane(m.creation_T_current_robot);
-  m.z_m = o.z_m;
-  m.roll_rad = o.roll_rad;
-  m.pitch_rad = o.pitch_rad;
+  //   creation_T_current_robot = creation_T_camera * camera_T_robot,
+  // and (4) its statistics.
+  void poseAndStatistics() {
+    const Eigen::Isometry3d camera_T_creation = fromAngleAxis(w_, t_);
+    m_.creation_T_current_robot = camera_T_creation.inverse() * camera_.robot_T_camera.inverse();
+    m_.relative = planarPose(m_.creation_T_current_robot);
+    const OutOfPlane o = outOfPlane(m_.creation_T_current_robot);
+    m_.z_m = o.z_m;
+    m_.roll_rad = o.roll_rad;
+    m_.pitch_rad = o.pitch_rad;
 
-  // (4) Statistics.
-  double sum_sq = 0;
-  for (int i : inliers) sum_sq += sq[i];
-  m.inliers = inliers;
-  m.num_points = num_inliers;
-  m.proj_err_rms_px = std::sqrt(sum_sq / num_inliers);
-  m.slope = o.slope;
-  planarSigmas(m.creation_T_current_robot, camera, points, obs, inliers, sum_sq, m);
-  m.total_ms = msSince(t0);
-  return result;
+    const int num_inliers = static_cast<int>(inliers_.size());
+    double sum_sq = 0;
+    for (int i : inliers_) sum_sq += sq_[i];
+    m_.inliers = inliers_;
+    m_.num_points = num_inliers;
+    m_.proj_err_rms_px = std::sqrt(sum_sq / num_inliers);
+    m_.slope = o.slope;
+    planarSigmas(m_.creation_T_current_robot, camera_, points_, obs_, inliers_, sum_sq, m_);
+    m_.total_ms = msSince(t0_);
+  }
+
+  const PoseMeasurementResult& result() const { return result_; }
+
+ private:
+  bool fail(MeasurementFailure f, std::string reason) {
+    result_.failure = f;
+    result_.reason = std::move(reason);
+    m_.total_ms = msSince(t0_);
+    return false;
+  }
+
+  // The RANSAC pose, and of its inliers those that it puts in front of the
+  // camera (the cost cannot be evaluated behind it).
+  void startFromRansac() {
+    rvec_.convertTo(rvec_, CV_64F);
+    tvec_.convertTo(tvec_, CV_64F);
+    for (int k = 0; k < 3; ++k) {
+      w_[k] = rvec_.at<double>(k);
+      t_[k] = tvec_.at<double>(k);
+    }
+    squaredErrors(fromAngleAxis(w_, t_), points_, obs_, camera_, params_.min_depth_m, sq_);
+    for (int i : ransac_inliers_)
+      if (std::isfinite(sq_[i])) inliers_.push_back(i);
+    std::sort(inliers_.begin(), inliers_.end());
+  }
+
+  bool enoughRefinedInliers() {
+    const int num_inliers = static_cast<int>(inliers_.size());
+    // A refinement that loses most of the RANSAC consensus has left the basin
+    // RANSAC found: report it as divergence, not as a weak measurement.
+    if (2 * num_inliers < m_.ransac_inliers)
+      return fail(MeasurementFailure::kRefinementDiverged,
+                  "refinement kept " + std::to_string(num_inliers) + " of " +
+                      std::to_string(m_.ransac_inliers) + " RANSAC inliers");
+    if (num_inliers < params_.min_inliers)
+      return fail(MeasurementFailure::kTooFewInliers, "refinement: " + std::to_string(num_inliers) +
+                                                          " inliers, need " +
+                                                          std::to_string(params_.min_inliers));
+    return true;
+  }
+
+  const std::vector<Eigen::Vector3d>& points_;
+  const std::vector<Eigen::Vector2d>& obs_;
+  const MeasurementCamera& camera_;
+  const PoseMeasurementParams& params_;
+  const Clock::time_point t0_;
+  const int n_;
+  PoseMeasurementResult result_;
+  PoseMeasurement& m_ = result_.measurement;
+  cv::Mat rvec_, tvec_;  // RANSAC's camera_T_creation
+  std::vector<int> ransac_inliers_;
+  double w_[3] = {}, t_[3] = {};  // camera_T_creation as angle-axis and translation
+  std::vector<int> inliers_;
+  std::vector<double> sq_;  // squared reprojection error of every pair, pixels^2
+};
+
+}  // namespace
+
+PoseMeasurementResult measurePose(const std::vector<Eigen::Vector3d>& points_creation_robot,
+                                  const std::vector<Eigen::Vector2d>& observations_normalized,
+                                  const MeasurementCamera& camera,
+                                  const PoseMeasurementParams& params) {
+  const Clock::time_point t0 = Clock::now();
+  params.validate();
+  MeasurementSteps steps(points_creation_robot, observations_normalized, camera, params, t0);
+  if (steps.validInput() && steps.ransacPnp() && steps.refine()) steps.poseAndStatistics();
+  return steps.result();
 }
 
 MeasurementStatus prefilter(const PoseMeasurement& m, const PrefilterParams& params) {

@@ -736,127 +736,161 @@ void defineMaterials(Rng& rng, Home& home) {
   }
 }
 
-void dressRooms(Rng& rng, Home& home) {
-  const size_t n = home.rooms.size();
-  std::vector<int> all(n);
-  for (size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
-
-  // Which hard cases this home has, and where.
+// Where this home's hard cases on walls and floors are: one plain room or a
+// few plain walls, papered rooms or walls, a tiled room (and its walls).
+struct HardSurfaces {
+  std::vector<int> all;  // every room's index
   int plain_room = -1;
   std::set<std::pair<int, int>> plain_walls;  // (room, edge)
-  if (rng.chance(0.45)) {
-    if (n >= 2 && rng.chance(0.5)) {
-      std::vector<int> candidates;
-      for (int i : all) {
-        if (home.rooms[static_cast<size_t>(i)].type != RoomType::kLiving) candidates.push_back(i);
-      }
-      plain_room = rng.pick(candidates);
-    } else {
-      const int rooms = 1 + static_cast<int>(rng.index(std::min<size_t>(2, n)));
-      for (int k = 0; k < rooms; ++k) {
-        const int room = rng.pick(all);
-        const int walls = 1 + static_cast<int>(rng.index(2));
-        for (int w = 0; w < walls; ++w) plain_walls.insert({room, static_cast<int>(rng.index(4))});
-      }
-    }
-    home.hard_cases.insert("plain-walls");
-  }
   std::set<int> papered;
   std::set<std::pair<int, int>> papered_walls;
-  if (rng.chance(0.5)) {
-    std::vector<int> candidates;
-    for (int i : all) {
-      if (i != plain_room) candidates.push_back(i);
-    }
-    rng.shuffle(candidates);
-    if (candidates.size() >= 2) {
-      const size_t count = std::min(candidates.size(), 2 + rng.index(2));
-      papered.insert(candidates.begin(), candidates.begin() + static_cast<long>(count));
-    } else if (!candidates.empty()) {
-      const int walls = 2 + static_cast<int>(rng.index(3));
-      for (int w = 0; w < walls; ++w) papered_walls.insert({candidates[0], w});
-    }
-    if (!papered.empty() || !papered_walls.empty()) {
-      home.hard_cases.insert("wallpaper");
-      home.wall_refs.insert(home.materials.get("wallpaper").texture);
-    }
-  }
   int tiled = -1;
   bool tiled_walls = false;
-  if (rng.chance(0.5)) {
-    for (RoomType t :
-         {RoomType::kBathroom, RoomType::kKitchen, RoomType::kHallway, RoomType::kLiving}) {
-      if (tiled < 0 && home.roomOfType(t) >= 0 && home.roomOfType(t) != plain_room) {
-        tiled = home.roomOfType(t);
-      }
-    }
-    tiled_walls = tiled >= 0 &&
-                  home.rooms[static_cast<size_t>(tiled)].type == RoomType::kBathroom &&
-                  rng.chance(0.5);
-    if (tiled >= 0) home.hard_cases.insert("tiles");
+};
+
+// The rooms other than the plain one.
+std::vector<int> roomsNotPlain(const HardSurfaces& hard) {
+  std::vector<int> candidates;
+  for (int i : hard.all) {
+    if (i != hard.plain_room) candidates.push_back(i);
   }
-  if (rng.chance(0.4)) {
+  return candidates;
+}
+
+void choosePlainWalls(Rng& rng, Home& home, HardSurfaces& hard) {
+  if (!rng.chance(0.45)) return;
+  const size_t n = hard.all.size();
+  if (n >= 2 && rng.chance(0.5)) {
     std::vector<int> candidates;
-    for (int i : all) {
-      if (i != plain_room) candidates.push_back(i);
+    for (int i : hard.all) {
+      if (home.rooms[static_cast<size_t>(i)].type != RoomType::kLiving) candidates.push_back(i);
     }
-    home.dim_room = rng.pick(candidates);
-    home.materials.setDimGain(roundTo(rng.uniform(0.25, 0.45), 0.01));
-    home.hard_cases.insert("dim-room");
+    hard.plain_room = rng.pick(candidates);
+  } else {
+    const int rooms = 1 + static_cast<int>(rng.index(std::min<size_t>(2, n)));
+    for (int k = 0; k < rooms; ++k) {
+      const int room = rng.pick(hard.all);
+      const int walls = 1 + static_cast<int>(rng.index(2));
+      for (int w = 0; w < walls; ++w)
+        hard.plain_walls.insert({room, static_cast<int>(rng.index(4))});
+    }
+  }
+  home.hard_cases.insert("plain-walls");
+}
+
+void chooseWallpaper(Rng& rng, Home& home, HardSurfaces& hard) {
+  if (!rng.chance(0.5)) return;
+  std::vector<int> candidates = roomsNotPlain(hard);
+  rng.shuffle(candidates);
+  if (candidates.size() >= 2) {
+    const size_t count = std::min(candidates.size(), 2 + rng.index(2));
+    hard.papered.insert(candidates.begin(), candidates.begin() + static_cast<long>(count));
+  } else if (!candidates.empty()) {
+    const int walls = 2 + static_cast<int>(rng.index(3));
+    for (int w = 0; w < walls; ++w) hard.papered_walls.insert({candidates[0], w});
+  }
+  if (!hard.papered.empty() || !hard.papered_walls.empty()) {
+    home.hard_cases.insert("wallpaper");
+    home.wall_refs.insert(home.materials.get("wallpaper").texture);
+  }
+}
+
+void chooseTiles(Rng& rng, Home& home, HardSurfaces& hard) {
+  if (!rng.chance(0.5)) return;
+  for (RoomType t :
+       {RoomType::kBathroom, RoomType::kKitchen, RoomType::kHallway, RoomType::kLiving}) {
+    if (hard.tiled < 0 && home.roomOfType(t) >= 0 && home.roomOfType(t) != hard.plain_room) {
+      hard.tiled = home.roomOfType(t);
+    }
+  }
+  hard.tiled_walls = hard.tiled >= 0 &&
+                     home.rooms[static_cast<size_t>(hard.tiled)].type == RoomType::kBathroom &&
+                     rng.chance(0.5);
+  if (hard.tiled >= 0) home.hard_cases.insert("tiles");
+}
+
+void chooseDimRoom(Rng& rng, Home& home, const HardSurfaces& hard) {
+  if (!rng.chance(0.4)) return;
+  home.dim_room = rng.pick(roomsNotPlain(hard));
+  home.materials.setDimGain(roundTo(rng.uniform(0.25, 0.45), 0.01));
+  home.hard_cases.insert("dim-room");
+}
+
+// Photos for the walls, dealt from a shuffled deck so that few repeat.
+class WallPhotoDeck {
+ public:
+  const WallPhoto* draw(Rng& rng) {
+    if (next_ == deck_.size()) {
+      deck_.clear();
+      for (const WallPhoto& p : kWallPhotos) deck_.push_back(&p);
+      rng.shuffle(deck_);
+      next_ = 0;
+    }
+    return deck_[next_++];
   }
 
-  // Photos for the other walls, few repeated.
-  std::vector<const WallPhoto*> deck;
-  size_t next_photo = 0;
-  auto drawPhoto = [&]() {
-    if (next_photo == deck.size()) {
-      deck.clear();
-      for (const WallPhoto& p : kWallPhotos) deck.push_back(&p);
-      rng.shuffle(deck);
-      next_photo = 0;
+ private:
+  std::vector<const WallPhoto*> deck_;
+  size_t next_ = 0;
+};
+
+// The materials of room i's four walls.
+std::array<std::string, 4> roomWalls(Rng& rng, Home& home, const HardSurfaces& hard, int i,
+                                     WallPhotoDeck& photos) {
+  std::array<std::string, 4> walls;
+  if (i == hard.plain_room) {
+    walls.fill("plain_wall");
+  } else if (hard.papered.count(i)) {
+    walls.fill("wallpaper");
+  } else if (i == hard.tiled && hard.tiled_walls) {
+    walls.fill("tiles");
+  } else {
+    const int count = 1 + static_cast<int>(rng.index(4));
+    std::vector<std::string> names;
+    for (int k = 0; k < count; ++k) {
+      const WallPhoto* p = photos.draw(rng);
+      names.push_back(p->name);
+      home.wall_refs.insert(p->ref);
     }
-    return deck[next_photo++];
-  };
+    for (size_t e = 0; e < 4; ++e) walls[e] = names[e % names.size()];
+  }
+  for (int e = 0; e < 4; ++e) {
+    if (hard.plain_walls.count({i, e})) walls[static_cast<size_t>(e)] = "plain_wall";
+    if (hard.papered_walls.count({i, e})) walls[static_cast<size_t>(e)] = "wallpaper";
+  }
+  return walls;
+}
+
+// The material of room i's floor.
+std::string roomFloor(Rng& rng, const HardSurfaces& hard, int i, RoomType type) {
+  if (i == hard.plain_room) return "plain_floor";
+  if (i == hard.tiled) return "tiles";
+  if (type == RoomType::kKitchen || type == RoomType::kBathroom) {
+    return rng.chance(0.7) ? "stone_floor" : "parquet";
+  }
+  if (type == RoomType::kHallway) return rng.chance(0.5) ? "parquet" : "stone_floor";
+  const std::vector<std::string> floors = {"parquet", "carpet", "boards"};
+  return rng.pick(floors);
+}
+
+void dressRooms(Rng& rng, Home& home) {
+  HardSurfaces hard;
+  hard.all.resize(home.rooms.size());
+  for (size_t i = 0; i < hard.all.size(); ++i) hard.all[i] = static_cast<int>(i);
+  choosePlainWalls(rng, home, hard);
+  chooseWallpaper(rng, home, hard);
+  chooseTiles(rng, home, hard);
+  chooseDimRoom(rng, home, hard);
+
+  WallPhotoDeck photos;
   const std::string ceiling = rng.chance(0.6) ? "plaster" : "white";
-  for (int i : all) {
+  for (int i : hard.all) {
     PlanRoom& room = home.rooms[static_cast<size_t>(i)];
-    std::array<std::string, 4> walls;
-    if (i == plain_room) {
-      walls.fill("plain_wall");
-    } else if (papered.count(i)) {
-      walls.fill("wallpaper");
-    } else if (i == tiled && tiled_walls) {
-      walls.fill("tiles");
-    } else {
-      const int photos = 1 + static_cast<int>(rng.index(4));
-      std::vector<std::string> names;
-      for (int k = 0; k < photos; ++k) {
-        const WallPhoto* p = drawPhoto();
-        names.push_back(p->name);
-        home.wall_refs.insert(p->ref);
-      }
-      for (size_t e = 0; e < 4; ++e) walls[e] = names[e % names.size()];
-    }
-    for (int e = 0; e < 4; ++e) {
-      if (plain_walls.count({i, e})) walls[static_cast<size_t>(e)] = "plain_wall";
-      if (papered_walls.count({i, e})) walls[static_cast<size_t>(e)] = "wallpaper";
-    }
-    std::string floor;
-    if (i == plain_room) {
-      floor = "plain_floor";
-    } else if (i == tiled) {
-      floor = "tiles";
-    } else if (room.type == RoomType::kKitchen || room.type == RoomType::kBathroom) {
-      floor = rng.chance(0.7) ? "stone_floor" : "parquet";
-    } else if (room.type == RoomType::kHallway) {
-      floor = rng.chance(0.5) ? "parquet" : "stone_floor";
-    } else {
-      const std::vector<std::string> floors = {"parquet", "carpet", "boards"};
-      floor = rng.pick(floors);
-    }
+    const std::array<std::string, 4> walls = roomWalls(rng, home, hard, i, photos);
+    const std::string floor = roomFloor(rng, hard, i, room.type);
     for (size_t e = 0; e < 4; ++e) room.walls[e] = home.mat(walls[e], i);
     room.floor = home.mat(floor, i);
-    room.ceiling = home.mat(i == plain_room ? "white" : ceiling, i);
+    room.ceiling = home.mat(i == hard.plain_room ? "white" : ceiling, i);
   }
 }
 

@@ -352,7 +352,18 @@ struct Renderer::Impl {
   // Camera-frame side planes of the sampled view (inward normals through the origin).
   std::array<Eigen::Vector3d, 4> side_planes;
 
+  // The pinhole image, the lens remap (distorted lenses) and the sample grid.
   void setupCamera();
+  // Distorted lenses: the pixels whose ray is found (sets map_error,
+  // invalid_pixels), the pinhole image that holds their rays and the remap
+  // from it to the lens image.
+  std::vector<bool> invertiblePixels(const std::vector<cv::Point2f>& pix,
+                                     const std::vector<cv::Point2f>& und,
+                                     const std::vector<cv::Point2f>& back);
+  void fitPinholeImage(const std::vector<cv::Point2f>& und, const std::vector<bool>& valid);
+  void buildLensRemap(const std::vector<cv::Point2f>& und, const std::vector<bool>& valid);
+  // The visibility samples and the view's side planes.
+  void setupSampleGrid();
   void renderPinhole(const Eigen::Isometry3d& world_T_camera, const std::vector<Surface>& dynamic,
                      const RenderEffects& effects, bool color);
   void drawSurface(const Prepared& p, const Eigen::Matrix3d& R_cw, const Eigen::Vector3d& t_cw,
@@ -361,6 +372,61 @@ struct Renderer::Impl {
   void shade();
   void finish(const RenderEffects& effects, bool color, cv::Mat& out);
 };
+
+namespace {
+
+// Every pixel of the image, row by row.
+std::vector<cv::Point2f> pixelGrid(const CameraModel& c) {
+  const size_t n = static_cast<size_t>(c.width) * c.height;
+  std::vector<cv::Point2f> pix(n);
+  for (int v = 0; v < c.height; ++v) {
+    for (int u = 0; u < c.width; ++u)
+      pix[static_cast<size_t>(v) * c.width + u] = {float(u), float(v)};
+  }
+  return pix;
+}
+
+// The undistorted normalized ray of every pixel, and (`back`) where the lens
+// model puts that ray again. Round trip: distort the undistorted rays again;
+// refine where OpenCV's iteration stopped short (Gauss-Newton with a
+// numerical Jacobian).
+std::vector<cv::Point2f> undistortPixels(const CameraModel& c, const std::vector<cv::Point2f>& pix,
+                                         std::vector<cv::Point2f>* back_out) {
+  const size_t n = pix.size();
+  std::vector<cv::Point2f> und;
+  const cv::Matx33d K = c.cameraMatrix();
+  cv::undistortPoints(pix, und, K, c.distortion, cv::noArray(), cv::noArray(),
+                      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
+  auto project = [&](const std::vector<cv::Point2f>& xy, std::vector<cv::Point2f>& out) {
+    std::vector<cv::Point3f> rays(xy.size());
+    for (size_t i = 0; i < xy.size(); ++i) rays[i] = {xy[i].x, xy[i].y, 1.0f};
+    cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, c.distortion, out);
+  };
+  std::vector<cv::Point2f>& back = *back_out;
+  std::vector<cv::Point2f> bx, by;
+  for (int iter = 0; iter < 3; ++iter) {
+    project(und, back);
+    std::vector<cv::Point2f> ux = und, uy = und;
+    const float h = 1e-4f;
+    for (auto& p : ux) p.x += h;
+    for (auto& p : uy) p.y += h;
+    project(ux, bx);
+    project(uy, by);
+    for (size_t i = 0; i < n; ++i) {
+      const double ex = pix[i].x - back[i].x, ey = pix[i].y - back[i].y;
+      const double j00 = (bx[i].x - back[i].x) / h, j10 = (bx[i].y - back[i].y) / h;
+      const double j01 = (by[i].x - back[i].x) / h, j11 = (by[i].y - back[i].y) / h;
+      const double det = j00 * j11 - j01 * j10;
+      if (std::abs(det) < 1e-12) continue;
+      und[i].x += static_cast<float>((j11 * ex - j01 * ey) / det);
+      und[i].y += static_cast<float>((-j10 * ex + j00 * ey) / det);
+    }
+  }
+  project(und, back);
+  return und;
+}
+
+}  // namespace
 
 void Renderer::Impl::setupCamera() {
   const CameraModel& c = camera;
@@ -377,102 +443,91 @@ void Renderer::Impl::setupCamera() {
     pcx = c.cx;
     pcy = c.cy;
   } else {
-    const size_t n = static_cast<size_t>(c.width) * c.height;
-    std::vector<cv::Point2f> pix(n);
-    for (int v = 0; v < c.height; ++v) {
-      for (int u = 0; u < c.width; ++u)
-        pix[static_cast<size_t>(v) * c.width + u] = {float(u), float(v)};
-    }
-    std::vector<cv::Point2f> und;
-    const cv::Matx33d K = c.cameraMatrix();
-    cv::undistortPoints(
-        pix, und, K, c.distortion, cv::noArray(), cv::noArray(),
-        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
-    // Round trip: distort the undistorted rays again; refine where OpenCV's
-    // iteration stopped short (Gauss-Newton with a numerical Jacobian).
-    auto project = [&](const std::vector<cv::Point2f>& xy, std::vector<cv::Point2f>& out) {
-      std::vector<cv::Point3f> rays(xy.size());
-      for (size_t i = 0; i < xy.size(); ++i) rays[i] = {xy[i].x, xy[i].y, 1.0f};
-      cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, c.distortion, out);
-    };
-    std::vector<cv::Point2f> back, bx, by;
-    for (int iter = 0; iter < 3; ++iter) {
-      project(und, back);
-      std::vector<cv::Point2f> ux = und, uy = und;
-      const float h = 1e-4f;
-      for (auto& p : ux) p.x += h;
-      for (auto& p : uy) p.y += h;
-      project(ux, bx);
-      project(uy, by);
-      for (size_t i = 0; i < n; ++i) {
-        const double ex = pix[i].x - back[i].x, ey = pix[i].y - back[i].y;
-        const double j00 = (bx[i].x - back[i].x) / h, j10 = (bx[i].y - back[i].y) / h;
-        const double j01 = (by[i].x - back[i].x) / h, j11 = (by[i].y - back[i].y) / h;
-        const double det = j00 * j11 - j01 * j10;
-        if (std::abs(det) < 1e-12) continue;
-        und[i].x += static_cast<float>((j11 * ex - j01 * ey) / det);
-        und[i].y += static_cast<float>((-j10 * ex + j00 * ey) / det);
-      }
-    }
-    project(und, back);
-    // Pixels the lens model cannot be inverted at (a polynomial that folds
-    // over inside the image: no ray reaches them) stay background; a model
-    // that fails on more than a sliver of the image is an error.
-    constexpr double kMaxRoundTripPx = 0.05;
-    constexpr double kMaxInvalidFraction = 0.005;
-    map_error = 0.0;
-    std::vector<bool> valid(n);
-    size_t invalid = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const double e = cv::norm(pix[i] - back[i]);
-      valid[i] = std::isfinite(e) && e < kMaxRoundTripPx && std::isfinite(und[i].x) &&
-                 std::isfinite(und[i].y);
-      if (valid[i]) {
-        map_error = std::max(map_error, e);
-      } else {
-        ++invalid;
-      }
-    }
-    if (invalid > kMaxInvalidFraction * n) {
-      throw std::invalid_argument(
-          "camera distortion cannot be inverted over the image: " + std::to_string(invalid) +
-          " of " + std::to_string(n) + " pixels have no undistorted ray (the model folds over)");
-    }
-    invalid_pixels = invalid;
-    // The pinhole image covers every undistorted pixel plus a bilinear margin.
-    float xmin = 1e9f, xmax = -1e9f, ymin = 1e9f, ymax = -1e9f;
-    for (size_t i = 0; i < n; ++i) {
-      if (!valid[i]) continue;
-      const cv::Point2f& p = und[i];
-      xmin = std::min(xmin, p.x);
-      xmax = std::max(xmax, p.x);
-      ymin = std::min(ymin, p.y);
-      ymax = std::max(ymax, p.y);
-    }
-    // Keep the pinhole image at most 3x the output per side (strong fisheyes
-    // get a lower pinhole resolution rather than a huge image).
-    const double span_x = (xmax - xmin) * c.fx, span_y = (ymax - ymin) * c.fy;
-    const double k = std::min({1.0, 3.0 * c.width / span_x, 3.0 * c.height / span_y});
-    pfx = k * c.fx;
-    pfy = k * c.fy;
-    constexpr int kMargin = 2;
-    const double x0 = std::floor(xmin * pfx) - kMargin, x1 = std::ceil(xmax * pfx) + kMargin;
-    const double y0 = std::floor(ymin * pfy) - kMargin, y1 = std::ceil(ymax * pfy) + kMargin;
-    pcx = -x0;
-    pcy = -y0;
-    pw = static_cast<int>(x1 - x0) + 1;
-    ph = static_cast<int>(y1 - y0) + 1;
-    cv::Mat mx(c.height, c.width, CV_32F), my(c.height, c.width, CV_32F);
-    for (int v = 0; v < c.height; ++v) {
-      for (int u = 0; u < c.width; ++u) {
-        const size_t i = static_cast<size_t>(v) * c.width + u;
-        const cv::Point2f& p = und[i];
-        mx.at<float>(v, u) = valid[i] ? static_cast<float>(pfx * p.x + pcx) : -10.0f;
-        my.at<float>(v, u) = valid[i] ? static_cast<float>(pfy * p.y + pcy) : -10.0f;
-      }
-    }
-    cv::convertMaps(mx, my, map1, map2, CV_16SC2);
+    const std::vector<cv::Point2f> pix = pixelGrid(c);
+    std::vector<cv::Point2f> back;
+    const std::vector<cv::Point2f> und = undistortPixels(c, pix, &back);
+    const std::vector<bool> valid = invertiblePixels(pix, und, back);
+    fitPinholeImage(und, valid);
+    buildLensRemap(und, valid);
   }
+  setupSampleGrid();
+}
+
+std::vector<bool> Renderer::Impl::invertiblePixels(const std::vector<cv::Point2f>& pix,
+                                                   const std::vector<cv::Point2f>& und,
+                                                   const std::vector<cv::Point2f>& back) {
+  // Pixels the lens model cannot be inverted at (a polynomial that folds
+  // over inside the image: no ray reaches them) stay background; a model
+  // that fails on more than a sliver of the image is an error.
+  constexpr double kMaxRoundTripPx = 0.05;
+  constexpr double kMaxInvalidFraction = 0.005;
+  const size_t n = pix.size();
+  map_error = 0.0;
+  std::vector<bool> valid(n);
+  size_t invalid = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double e = cv::norm(pix[i] - back[i]);
+    valid[i] = std::isfinite(e) && e < kMaxRoundTripPx && std::isfinite(und[i].x) &&
+               std::isfinite(und[i].y);
+    if (valid[i]) {
+      map_error = std::max(map_error, e);
+    } else {
+      ++invalid;
+    }
+  }
+  if (invalid > kMaxInvalidFraction * n) {
+    throw std::invalid_argument(
+        "camera distortion cannot be inverted over the image: " + std::to_string(invalid) + " of " +
+        std::to_string(n) + " pixels have no undistorted ray (the model folds over)");
+  }
+  invalid_pixels = invalid;
+  return valid;
+}
+
+void Renderer::Impl::fitPinholeImage(const std::vector<cv::Point2f>& und,
+                                     const std::vector<bool>& valid) {
+  const CameraModel& c = camera;
+  // The pinhole image covers every undistorted pixel plus a bilinear margin.
+  float xmin = 1e9f, xmax = -1e9f, ymin = 1e9f, ymax = -1e9f;
+  for (size_t i = 0; i < und.size(); ++i) {
+    if (!valid[i]) continue;
+    const cv::Point2f& p = und[i];
+    xmin = std::min(xmin, p.x);
+    xmax = std::max(xmax, p.x);
+    ymin = std::min(ymin, p.y);
+    ymax = std::max(ymax, p.y);
+  }
+  // Keep the pinhole image at most 3x the output per side (strong fisheyes
+  // get a lower pinhole resolution rather than a huge image).
+  const double span_x = (xmax - xmin) * c.fx, span_y = (ymax - ymin) * c.fy;
+  const double k = std::min({1.0, 3.0 * c.width / span_x, 3.0 * c.height / span_y});
+  pfx = k * c.fx;
+  pfy = k * c.fy;
+  constexpr int kMargin = 2;
+  const double x0 = std::floor(xmin * pfx) - kMargin, x1 = std::ceil(xmax * pfx) + kMargin;
+  const double y0 = std::floor(ymin * pfy) - kMargin, y1 = std::ceil(ymax * pfy) + kMargin;
+  pcx = -x0;
+  pcy = -y0;
+  pw = static_cast<int>(x1 - x0) + 1;
+  ph = static_cast<int>(y1 - y0) + 1;
+}
+
+void Renderer::Impl::buildLensRemap(const std::vector<cv::Point2f>& und,
+                                    const std::vector<bool>& valid) {
+  const CameraModel& c = camera;
+  cv::Mat mx(c.height, c.width, CV_32F), my(c.height, c.width, CV_32F);
+  for (int v = 0; v < c.height; ++v) {
+    for (int u = 0; u < c.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * c.width + u;
+      const cv::Point2f& p = und[i];
+      mx.at<float>(v, u) = valid[i] ? static_cast<float>(pfx * p.x + pcx) : -10.0f;
+      my.at<float>(v, u) = valid[i] ? static_cast<float>(pfy * p.y + pcy) : -10.0f;
+    }
+  }
+  cv::convertMaps(mx, my, map1, map2, CV_16SC2);
+}
+
+void Renderer::Impl::setupSampleGrid() {
   factor = options.antialias ? 2 : 1;
   sw = pw * factor;
   sh = ph * factor;
