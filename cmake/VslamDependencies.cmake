@@ -10,6 +10,7 @@ find_package(Ceres REQUIRED)
 find_package(TBB REQUIRED)
 find_package(SQLite3 REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)  # command lines (header-only)
+find_package(nlohmann_json 3 REQUIRED)  # JSON in and out (header-only)
 
 if(VSLAM_BUILD_TESTS)
   find_package(GTest REQUIRED)

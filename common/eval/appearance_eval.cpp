@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -16,6 +15,7 @@
 
 #include "eval/command_line.hpp"
 #include "eval/errors.hpp"
+#include "eval/json_report.hpp"
 #include "eval/log_events.hpp"
 #include "eval/plot.hpp"
 #include "odometry/pose2.hpp"
@@ -55,13 +55,6 @@ std::string fmt(double v, int decimals = 3) {
   if (!std::isfinite(v)) return "-";
   std::ostringstream os;
   os << std::fixed << std::setprecision(decimals) << v;
-  return os.str();
-}
-
-std::string jsonNumber(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream os;
-  os << std::setprecision(9) << v;
   return os.str();
 }
 
@@ -143,7 +136,8 @@ const char* statusName(AppearanceKidnap::Status status) {
   return "no mapped place reached";
 }
 
-std::string jsonStep(int64_t step) { return step < 0 ? "null" : std::to_string(step); }
+// A step index; null for none (-1).
+Json jsonStep(int64_t step) { return step < 0 ? Json(nullptr) : Json(step); }
 
 // What the evaluation reads from the log.
 struct AppearanceLog {
@@ -452,56 +446,53 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
 }
 
 void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
-  std::ofstream os(file);
-  if (!os) throw DataError(file.string() + ": cannot write");
-  os << "{\n  \"input\": \"" << r.input << "\",\n"
-     << "  \"steps\": " << r.steps.size() << ",\n"
-     << "  \"states_created\": " << r.states_created << ",\n"
-     << "  \"map_states\": " << r.map_states << ",\n"
-     << "  \"map_links\": " << r.map_links << ",\n"
-     << "  \"mean_hypotheses\": " << jsonNumber(r.mean_hypotheses) << ",\n"
-     << "  \"max_hypotheses\": " << r.max_hypotheses << ",\n"
-     << "  \"revisit_hypotheses\": " << r.errors.size() << ",\n"
-     << "  \"mean_position_error_m\": " << jsonNumber(r.mean_position_error) << ",\n"
-     << "  \"weighted_position_error_m\": " << jsonNumber(r.weighted_position_error) << ",\n"
-     << "  \"weighted_nearest_state_distance_m\": " << jsonNumber(r.weighted_nearest_state_distance)
-     << ",\n"
-     << "  \"median_position_error_m\": " << jsonNumber(r.median_position_error) << ",\n"
-     << "  \"max_position_error_m\": " << jsonNumber(r.max_position_error) << ",\n"
-     << "  \"mean_abs_heading_error_rad\": " << jsonNumber(r.mean_abs_heading_error) << ",\n"
-     << "  \"fraction_within_action\": " << jsonNumber(r.fraction_within_action) << ",\n"
-     << "  \"steps_best_revisit\": " << r.steps_best_revisit << ",\n"
-     << "  \"mean_best_position_error_m\": " << jsonNumber(r.mean_best_position_error) << ",\n"
-     << "  \"mean_nearest_state_distance_m\": " << jsonNumber(r.mean_nearest_state_distance)
-     << ",\n"
-     << "  \"mean_step_seconds\": " << jsonNumber(r.mean_step_seconds) << ",\n"
-     << "  \"revisit_steps\": " << r.revisit_steps << ",\n"
-     << "  \"revisit_steps_recognized\": " << r.revisit_steps_recognized << ",\n"
-     << "  \"wrong_revisit_steps\": " << r.wrong_revisit_steps << ",\n"
-     << "  \"relocalizations_correct\": " << r.relocalizations_correct << ",\n"
-     << "  \"relocalizations_wrong\": " << r.relocalizations_wrong << ",\n"
-     << "  \"kidnaps\": [";
-  for (size_t i = 0; i < r.kidnaps.size(); ++i) {
-    const auto& k = r.kidnaps[i];
-    os << (i ? "," : "") << "\n    {\"kind\": \"" << kindName(k.kind) << "\", \"step\": " << k.step
-       << ", \"t\": " << jsonNumber(k.t) << ", \"status\": \"" << statusName(k.status)
-       << "\", \"first_mapped_step\": " << jsonStep(k.first_mapped_step)
-       << ", \"first_correct_step\": " << jsonStep(k.first_correct_step)
-       << ", \"steps_to_relocalize\": " << jsonStep(k.steps_to_relocalize) << "}";
+  Json j;
+  j["input"] = r.input;
+  j["steps"] = r.steps.size();
+  j["states_created"] = r.states_created;
+  j["map_states"] = r.map_states;
+  j["map_links"] = r.map_links;
+  j["mean_hypotheses"] = jsonNumber(r.mean_hypotheses);
+  j["max_hypotheses"] = r.max_hypotheses;
+  j["revisit_hypotheses"] = r.errors.size();
+  j["mean_position_error_m"] = jsonNumber(r.mean_position_error);
+  j["weighted_position_error_m"] = jsonNumber(r.weighted_position_error);
+  j["weighted_nearest_state_distance_m"] = jsonNumber(r.weighted_nearest_state_distance);
+  j["median_position_error_m"] = jsonNumber(r.median_position_error);
+  j["max_position_error_m"] = jsonNumber(r.max_position_error);
+  j["mean_abs_heading_error_rad"] = jsonNumber(r.mean_abs_heading_error);
+  j["fraction_within_action"] = jsonNumber(r.fraction_within_action);
+  j["steps_best_revisit"] = r.steps_best_revisit;
+  j["mean_best_position_error_m"] = jsonNumber(r.mean_best_position_error);
+  j["mean_nearest_state_distance_m"] = jsonNumber(r.mean_nearest_state_distance);
+  j["mean_step_seconds"] = jsonNumber(r.mean_step_seconds);
+  j["revisit_steps"] = r.revisit_steps;
+  j["revisit_steps_recognized"] = r.revisit_steps_recognized;
+  j["wrong_revisit_steps"] = r.wrong_revisit_steps;
+  j["relocalizations_correct"] = r.relocalizations_correct;
+  j["relocalizations_wrong"] = r.relocalizations_wrong;
+  Json& kidnaps = j["kidnaps"] = Json::array();
+  for (const auto& k : r.kidnaps) {
+    kidnaps.push_back({{"kind", kindName(k.kind)},
+                       {"step", k.step},
+                       {"t", jsonNumber(k.t)},
+                       {"status", statusName(k.status)},
+                       {"first_mapped_step", jsonStep(k.first_mapped_step)},
+                       {"first_correct_step", jsonStep(k.first_correct_step)},
+                       {"steps_to_relocalize", jsonStep(k.steps_to_relocalize)}});
   }
-  os << (r.kidnaps.empty() ? "" : "\n  ") << "],\n"
-     << "  \"relocalizations\": [";
-  for (size_t i = 0; i < r.relocalizations.size(); ++i) {
-    const auto& rl = r.relocalizations[i];
-    os << (i ? "," : "") << "\n    {\"step\": " << rl.step << ", \"t\": " << jsonNumber(rl.t)
-       << ", \"state_id\": " << rl.state_id << ", \"previous_state_id\": " << rl.previous_state_id
-       << ", \"belief\": " << jsonNumber(rl.belief)
-       << ", \"position_error_m\": " << jsonNumber(rl.position_error)
-       << ", \"heading_error_rad\": " << jsonNumber(rl.heading_error)
-       << ", \"correct\": " << (rl.correct ? "true" : "false") << "}";
+  Json& relocalizations = j["relocalizations"] = Json::array();
+  for (const auto& rl : r.relocalizations) {
+    relocalizations.push_back({{"step", rl.step},
+                               {"t", jsonNumber(rl.t)},
+                               {"state_id", rl.state_id},
+                               {"previous_state_id", rl.previous_state_id},
+                               {"belief", jsonNumber(rl.belief)},
+                               {"position_error_m", jsonNumber(rl.position_error)},
+                               {"heading_error_rad", jsonNumber(rl.heading_error)},
+                               {"correct", rl.correct}});
   }
-  os << "\n  ]\n}\n";
-  if (!os) throw DataError(file.string() + ": cannot write");
+  writeJsonFile(file, j);
 }
 
 std::vector<fs::path> writeAppearancePlots(const fs::path& dir, const AppearanceReport& r,

@@ -2,13 +2,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <functional>
+#include <initializer_list>
 #include <iomanip>
 #include <ostream>
-#include <sstream>
-
-#include "eval/errors.hpp"
 
 namespace vslam::eval {
 namespace {
@@ -22,114 +19,22 @@ std::string fixed(double v, int decimals) {
   return buf;
 }
 
-// Minimal pretty-printing JSON writer: objects and arrays of numbers and
-// strings. Non-finite numbers are written as null.
-class Json {
- public:
-  void beginObject(const std::string& key = "") { open(key, '{'); }
-  void endObject() { close('}'); }
-  void beginArray(const std::string& key = "") { open(key, '['); }
-  void endArray() { close(']'); }
-  void number(const std::string& key, double v) {
-    item(key);
-    if (std::isfinite(v)) {
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), "%.10g", v);
-      os_ << buf;
-    } else {
-      os_ << "null";
-    }
-  }
-  void integer(const std::string& key, long long v) {
-    item(key);
-    os_ << v;
-  }
-  void string(const std::string& key, const std::string& v) {
-    item(key);
-    quoted(v);
-  }
-  void boolean(const std::string& key, bool v) {
-    item(key);
-    os_ << (v ? "true" : "false");
-  }
-  void numbers(const std::string& key, const std::vector<double>& v) {
-    item(key);
-    os_ << "[";
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), "%.10g", v[i]);
-      os_ << (i ? ", " : "") << (std::isfinite(v[i]) ? buf : "null");
-    }
-    os_ << "]";
-  }
-  std::string str() const { return os_.str() + "\n"; }
+Json statsJson(const ErrorStats& s, double factor) {
+  Json j;
+  j["count"] = s.count;
+  j["rmse"] = jsonNumber(s.rmse * factor);
+  j["mean"] = jsonNumber(s.mean * factor);
+  j["median"] = jsonNumber(s.median * factor);
+  j["std"] = jsonNumber(s.std * factor);
+  j["min"] = jsonNumber(s.min * factor);
+  j["max"] = jsonNumber(s.max * factor);
+  return j;
+}
 
- private:
-  void quoted(const std::string& s) {
-    os_ << '"';
-    for (const char c : s) {
-      switch (c) {
-        case '"':
-          os_ << "\\\"";
-          break;
-        case '\\':
-          os_ << "\\\\";
-          break;
-        case '\n':
-          os_ << "\\n";
-          break;
-        case '\t':
-          os_ << "\\t";
-          break;
-        default:
-          if (static_cast<unsigned char>(c) < 0x20) {
-            char buf[8];
-            std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-            os_ << buf;
-          } else {
-            os_ << c;
-          }
-      }
-    }
-    os_ << '"';
-  }
-  void item(const std::string& key) {
-    if (!first_.empty()) {
-      if (!first_.back()) os_ << ",";
-      first_.back() = false;
-      os_ << "\n" << std::string(2 * first_.size(), ' ');
-    }
-    if (!key.empty()) {
-      quoted(key);
-      os_ << ": ";
-    }
-  }
-  void open(const std::string& key, char bracket) {
-    item(key);
-    os_ << bracket;
-    first_.push_back(true);
-  }
-  void close(char bracket) {
-    const bool empty = first_.back();
-    first_.pop_back();
-    if (!empty) os_ << "\n" << std::string(2 * first_.size(), ' ');
-    os_ << bracket;
-  }
-
-  std::ostringstream os_;
-  std::vector<bool> first_;
-};
-
-void statsJson(Json& j, const std::string& key, const ErrorStats& s, double factor) {
-  j.beginObject(key);
-  j.integer("count", static_cast<long long>(s.count));
-  j.number("rmse", s.rmse * factor);
-  j.number("mean", s.mean * factor);
-  j.number("median", s.median * factor);
-  j.number("std", s.std * factor);
-  j.number("min", s.min * factor);
-  j.number("max", s.max * factor);
-  j.endObject();
+Json jsonNumbers(std::initializer_list<double> values) {
+  Json j = Json::array();
+  for (const double v : values) j.push_back(jsonNumber(v));
+  return j;
 }
 
 }  // namespace
@@ -206,71 +111,59 @@ void printTable(std::ostream& os, const TrajectoryReport& r) {
   os.flush();
 }
 
-std::string toJson(const TrajectoryReport& r) {
+Json toJson(const TrajectoryReport& r) {
   Json j;
-  j.beginObject();
-  j.string("tool", "vslam-eval");
-  j.string("mode", "trajectory");
-  j.string("input", r.input);
-  j.beginObject("parameters");
-  j.number("max_diff_s", r.options.max_diff);
-  j.number("offset_s", r.options.offset);
-  j.string("align", toString(r.options.align));
-  j.number("rpe_delta", r.options.rpe.delta);
-  j.string("rpe_delta_unit", toString(r.options.rpe.unit));
-  j.endObject();
-  j.beginObject("reference");
-  j.string("name", r.reference.name);
-  j.string("source", r.reference_source);
-  j.integer("poses", static_cast<long long>(r.reference.size()));
-  j.number("duration_s", r.reference.duration());
-  j.number("path_length_m", r.reference.pathLength());
-  j.endObject();
-  j.beginArray("estimates");
+  j["tool"] = "vslam-eval";
+  j["mode"] = "trajectory";
+  j["input"] = r.input;
+  Json& parameters = j["parameters"];
+  parameters["max_diff_s"] = jsonNumber(r.options.max_diff);
+  parameters["offset_s"] = jsonNumber(r.options.offset);
+  parameters["align"] = toString(r.options.align);
+  parameters["rpe_delta"] = jsonNumber(r.options.rpe.delta);
+  parameters["rpe_delta_unit"] = toString(r.options.rpe.unit);
+  Json& reference = j["reference"];
+  reference["name"] = r.reference.name;
+  reference["source"] = r.reference_source;
+  reference["poses"] = r.reference.size();
+  reference["duration_s"] = jsonNumber(r.reference.duration());
+  reference["path_length_m"] = jsonNumber(r.reference.pathLength());
+  Json& estimates = j["estimates"] = Json::array();
   for (const auto& e : r.estimates) {
-    j.beginObject();
-    j.string("name", e.name);
-    j.string("kind", toString(e.kind));
-    j.string("source", e.source);
-    j.integer("poses", static_cast<long long>(e.poses));
-    j.number("duration_s", e.duration);
-    j.number("path_length_m", e.path_length);
-    j.beginObject("alignment");
-    j.string("mode", toString(r.options.align));
-    j.number("scale", e.ate.alignment.scale);
-    j.number("yaw_deg", e.ate.alignment.yaw() * kRadToDeg);
-    j.number("angle_deg", e.ate.alignment.rotationAngle() * kRadToDeg);
-    j.numbers("translation_m",
-              {e.ate.alignment.t.x(), e.ate.alignment.t.y(), e.ate.alignment.t.z()});
-    const auto& R = e.ate.alignment.R;
-    j.numbers("rotation_rowmajor",
-              {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)});
-    j.endObject();
-    j.beginObject("ate");
-    j.integer("pairs", static_cast<long long>(e.ate.stats.count));
-    statsJson(j, "translation_m", e.ate.stats, 1.0);
-    statsJson(j, "heading_deg", e.ate.heading, kRadToDeg);
-    j.endObject();
-    j.beginObject("rpe");
-    j.integer("pairs", static_cast<long long>(e.rpe.trans.count));
-    j.number("reference_max_time_diff_s", e.rpe.ref_max_time_diff);
-    statsJson(j, "translation_m", e.rpe.trans, 1.0);
-    statsJson(j, "rotation_deg", e.rpe.rot, kRadToDeg);
-    j.endObject();
-    j.endObject();
+    Json est;
+    est["name"] = e.name;
+    est["kind"] = toString(e.kind);
+    est["source"] = e.source;
+    est["poses"] = e.poses;
+    est["duration_s"] = jsonNumber(e.duration);
+    est["path_length_m"] = jsonNumber(e.path_length);
+    const auto& a = e.ate.alignment;
+    Json& alignment = est["alignment"];
+    alignment["mode"] = toString(r.options.align);
+    alignment["scale"] = jsonNumber(a.scale);
+    alignment["yaw_deg"] = jsonNumber(a.yaw() * kRadToDeg);
+    alignment["angle_deg"] = jsonNumber(a.rotationAngle() * kRadToDeg);
+    alignment["translation_m"] = jsonNumbers({a.t.x(), a.t.y(), a.t.z()});
+    const auto& R = a.R;
+    alignment["rotation_rowmajor"] = jsonNumbers(
+        {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)});
+    Json& ate = est["ate"];
+    ate["pairs"] = e.ate.stats.count;
+    ate["translation_m"] = statsJson(e.ate.stats, 1.0);
+    ate["heading_deg"] = statsJson(e.ate.heading, kRadToDeg);
+    Json& rpe = est["rpe"];
+    rpe["pairs"] = e.rpe.trans.count;
+    rpe["reference_max_time_diff_s"] = jsonNumber(e.rpe.ref_max_time_diff);
+    rpe["translation_m"] = statsJson(e.rpe.trans, 1.0);
+    rpe["rotation_deg"] = statsJson(e.rpe.rot, kRadToDeg);
+    estimates.push_back(std::move(est));
   }
-  j.endArray();
-  j.integer("landmarks", static_cast<long long>(r.landmarks.size()));
-  j.endObject();
-  return j.str();
+  j["landmarks"] = r.landmarks.size();
+  return j;
 }
 
 void writeJson(const std::filesystem::path& file, const TrajectoryReport& report) {
-  std::ofstream out(file);
-  if (!out) throw DataError(file.string() + ": cannot open for writing");
-  out << toJson(report);
-  out.close();
-  if (!out) throw DataError(file.string() + ": write failed");
+  writeJsonFile(file, toJson(report));
 }
 
 }  // namespace vslam::eval

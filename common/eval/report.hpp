@@ -6,6 +6,7 @@
 #include <iosfwd>
 
 #include "eval/evaluate.hpp"
+#include "eval/json_report.hpp"
 
 namespace vslam::eval {
 
@@ -13,8 +14,9 @@ namespace vslam::eval {
 // in degrees.
 void printTable(std::ostream& os, const TrajectoryReport& report);
 
-// Writes the report as JSON; throws DataError if the file cannot be written.
+// The report as JSON (non-finite figures as null); writeJson throws
+// DataError if the file cannot be written.
+Json toJson(const TrajectoryReport& report);
 void writeJson(const std::filesystem::path& file, const TrajectoryReport& report);
-std::string toJson(const TrajectoryReport& report);
 
 }  // namespace vslam::eval

@@ -5,22 +5,23 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <vector>
 #include <vslam/ground_truth_pose_t.hpp>
 #include <vslam/map_t.hpp>
 #include <vslam/odometry_t.hpp>
 #include <vslam/pose_estimate_t.hpp>
 
+#include "eval/appearance_eval.hpp"
 #include "eval/eval_cli.hpp"
 #include "eval/tum_file.hpp"
 #include "eval_test_util.hpp"
-#include "json_lite.hpp"
 
 namespace fs = std::filesystem;
 using vslam::test::contains;
-using vslam::test::JsonParser;
-using vslam::test::JsonValue;
 using vslam::test::runProgram;
 
 namespace {
@@ -106,7 +107,17 @@ CliResult runCli(const std::vector<std::string>& args) {
   return {code, out.str(), err.str()};
 }
 
-JsonValue readJson(const fs::path& file) { return JsonParser::parse(vslam::test::fileBytes(file)); }
+// Parsing throws on any syntax error: this also checks that the JSON is valid.
+nlohmann::json readJson(const fs::path& file) {
+  return nlohmann::json::parse(vslam::test::fileBytes(file));
+}
+
+// The keys of an object in the order the file has them.
+std::vector<std::string> keysInOrder(const nlohmann::ordered_json& object) {
+  std::vector<std::string> keys;
+  for (const auto& item : object.items()) keys.push_back(item.key());
+  return keys;
+}
 
 // The value of a table row for the (first) estimate column.
 std::string tableValue(const std::string& table, const std::string& row) {
@@ -143,24 +154,24 @@ TEST_F(EvalTool, LogOdometryOnlyPathWithDefaults) {
   const auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
   // Defaults: POSE_ODOMETRY is present, so raw ODOMETRY is not evaluated.
-  const JsonValue j = readJson(json);
-  ASSERT_EQ(j["estimates"].array.size(), 1u);
-  const JsonValue& e = j["estimates"][0];
-  EXPECT_EQ(e["name"].str(), "POSE_ODOMETRY");
-  EXPECT_EQ(e["kind"].str(), "odometry");
-  EXPECT_EQ(e["source"].str(), "vslam.pose_estimate_t");
-  EXPECT_EQ(j["reference"]["name"].str(), "GROUND_TRUTH");
-  EXPECT_EQ(j["reference"]["poses"].num(), 501);
-  EXPECT_EQ(e["ate"]["pairs"].num(), 501);
-  EXPECT_NEAR(e["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
-  EXPECT_NEAR(e["ate"]["translation_m"]["median"].num(), 0.1, 1e-9);
-  EXPECT_NEAR(e["ate"]["translation_m"]["std"].num(), 0.0, 1e-9);
+  const nlohmann::json j = readJson(json);
+  ASSERT_EQ(j.at("estimates").size(), 1u);
+  const nlohmann::json& e = j.at("estimates").at(0);
+  EXPECT_EQ(e.at("name").get<std::string>(), "POSE_ODOMETRY");
+  EXPECT_EQ(e.at("kind").get<std::string>(), "odometry");
+  EXPECT_EQ(e.at("source").get<std::string>(), "vslam.pose_estimate_t");
+  EXPECT_EQ(j.at("reference").at("name").get<std::string>(), "GROUND_TRUTH");
+  EXPECT_EQ(j.at("reference").at("poses").get<int>(), 501);
+  EXPECT_EQ(e.at("ate").at("pairs").get<int>(), 501);
+  EXPECT_NEAR(e.at("ate").at("translation_m").at("rmse").get<double>(), 0.1, 1e-9);
+  EXPECT_NEAR(e.at("ate").at("translation_m").at("median").get<double>(), 0.1, 1e-9);
+  EXPECT_NEAR(e.at("ate").at("translation_m").at("std").get<double>(), 0.0, 1e-9);
   // A constant offset does not change relative motion: RPE 0. 1 s pairs at
   // 50 Hz over 10 s: i = 0..449.
-  EXPECT_EQ(e["rpe"]["pairs"].num(), 450);
-  EXPECT_LT(e["rpe"]["translation_m"]["max"].num(), 1e-6);
-  EXPECT_EQ(j["parameters"]["align"].str(), "none");
-  EXPECT_NEAR(j["parameters"]["max_diff_s"].num(), 0.02, 1e-12);
+  EXPECT_EQ(e.at("rpe").at("pairs").get<int>(), 450);
+  EXPECT_LT(e.at("rpe").at("translation_m").at("max").get<double>(), 1e-6);
+  EXPECT_EQ(j.at("parameters").at("align").get<std::string>(), "none");
+  EXPECT_NEAR(j.at("parameters").at("max_diff_s").get<double>(), 0.02, 1e-12);
   // The table says the same.
   EXPECT_TRUE(contains(r.out, "POSE_ODOMETRY")) << r.out;
   EXPECT_EQ(tableValue(r.out, "ATE rmse [m]"), "0.100000") << r.out;
@@ -170,7 +181,9 @@ TEST_F(EvalTool, LogOdometryOnlyPathWithDefaults) {
   // With se2 alignment the offset is removed.
   const auto aligned = runCli({log.string(), "--align", "se2", "--json", json.string()});
   ASSERT_EQ(aligned.code, 0) << aligned.err;
-  EXPECT_LT(readJson(json)["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-6);
+  EXPECT_LT(
+      readJson(json).at("estimates").at(0).at("ate").at("translation_m").at("max").get<double>(),
+      1e-6);
 }
 
 TEST_F(EvalTool, LogRawOdometryWhenNoPoseOdometry) {
@@ -178,11 +191,11 @@ TEST_F(EvalTool, LogRawOdometryWhenNoPoseOdometry) {
   writeDriveLog(log, {false, false, true});
   const auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  const JsonValue j = readJson(json);
-  ASSERT_EQ(j["estimates"].array.size(), 1u);
-  EXPECT_EQ(j["estimates"][0]["name"].str(), "ODOMETRY");
-  EXPECT_EQ(j["estimates"][0]["source"].str(), "vslam.odometry_t");
-  EXPECT_LT(j["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-9);
+  const nlohmann::json j = readJson(json);
+  ASSERT_EQ(j.at("estimates").size(), 1u);
+  EXPECT_EQ(j.at("estimates").at(0).at("name").get<std::string>(), "ODOMETRY");
+  EXPECT_EQ(j.at("estimates").at(0).at("source").get<std::string>(), "vslam.odometry_t");
+  EXPECT_LT(j.at("estimates").at(0).at("ate").at("translation_m").at("max").get<double>(), 1e-9);
 }
 
 TEST_F(EvalTool, LogExplicitChannelsInOrder) {
@@ -191,19 +204,20 @@ TEST_F(EvalTool, LogExplicitChannelsInOrder) {
   auto r = runCli({log.string(), "--est-channel", "POSE_ESTIMATE", "--odom-channel", "ODOMETRY",
                    "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  const JsonValue j = readJson(json);
-  ASSERT_EQ(j["estimates"].array.size(), 2u);
-  EXPECT_EQ(j["estimates"][0]["name"].str(), "POSE_ESTIMATE");
-  EXPECT_EQ(j["estimates"][0]["kind"].str(), "estimate");
-  EXPECT_NEAR(j["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.05, 1e-9);
-  EXPECT_EQ(j["estimates"][1]["name"].str(), "ODOMETRY");
-  EXPECT_EQ(j["estimates"][1]["kind"].str(), "odometry");
+  const nlohmann::json j = readJson(json);
+  ASSERT_EQ(j.at("estimates").size(), 2u);
+  EXPECT_EQ(j.at("estimates").at(0).at("name").get<std::string>(), "POSE_ESTIMATE");
+  EXPECT_EQ(j.at("estimates").at(0).at("kind").get<std::string>(), "estimate");
+  EXPECT_NEAR(j.at("estimates").at(0).at("ate").at("translation_m").at("rmse").get<double>(), 0.05,
+              1e-9);
+  EXPECT_EQ(j.at("estimates").at(1).at("name").get<std::string>(), "ODOMETRY");
+  EXPECT_EQ(j.at("estimates").at(1).at("kind").get<std::string>(), "odometry");
   // Defaults with everything present: POSE_ESTIMATE and POSE_ODOMETRY.
   r = runCli({log.string(), "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  ASSERT_EQ(readJson(json)["estimates"].array.size(), 2u);
-  EXPECT_EQ(readJson(json)["estimates"][1]["name"].str(), "POSE_ODOMETRY");
-  EXPECT_EQ(readJson(json)["parameters"]["align"].str(), "se3");  // the default
+  ASSERT_EQ(readJson(json).at("estimates").size(), 2u);
+  EXPECT_EQ(readJson(json).at("estimates").at(1).at("name").get<std::string>(), "POSE_ODOMETRY");
+  EXPECT_EQ(readJson(json).at("parameters").at("align").get<std::string>(), "se3");  // the default
   // An explicit channel that is not there is an error naming it.
   r = runCli({log.string(), "--est-channel", "POSE_BACKEND"});
   EXPECT_EQ(r.code, 1);
@@ -220,8 +234,10 @@ TEST_F(EvalTool, MaxDiffAndOffsetControlAssociation) {
   writeDriveLog(log, d);
   auto r = runCli({log.string(), "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 501);
-  EXPECT_NEAR(readJson(json)["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
+  EXPECT_EQ(readJson(json).at("estimates").at(0).at("ate").at("pairs").get<int>(), 501);
+  EXPECT_NEAR(
+      readJson(json).at("estimates").at(0).at("ate").at("translation_m").at("rmse").get<double>(),
+      0.1, 1e-9);
   r = runCli({log.string(), "--max-diff", "0.005"});
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(contains(r.err, "no associated poses")) << r.err;
@@ -229,15 +245,17 @@ TEST_F(EvalTool, MaxDiffAndOffsetControlAssociation) {
   r = runCli({log.string(), "--max-diff", "0.005", "--offset", "-0.007", "--align", "none",
               "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 501);
-  EXPECT_NEAR(readJson(json)["estimates"][0]["ate"]["translation_m"]["rmse"].num(), 0.1, 1e-9);
+  EXPECT_EQ(readJson(json).at("estimates").at(0).at("ate").at("pairs").get<int>(), 501);
+  EXPECT_NEAR(
+      readJson(json).at("estimates").at(0).at("ate").at("translation_m").at("rmse").get<double>(),
+      0.1, 1e-9);
   // 15 ms late: the nearest reference pose is the next one (5 ms), so every
   // estimate pairs with the pose 20 ms after its own and the last has none.
   d.odometry_delay_us = 15000;
   writeDriveLog(log, d);
   r = runCli({log.string(), "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(readJson(json)["estimates"][0]["ate"]["pairs"].num(), 500);
+  EXPECT_EQ(readJson(json).at("estimates").at(0).at("ate").at("pairs").get<int>(), 500);
 }
 
 TEST_F(EvalTool, PlotsAreWrittenWithTheRightSizeAndColours) {
@@ -308,15 +326,17 @@ TEST_F(EvalTool, TumFilesThroughTheProgram) {
                        (dir_ / "est.txt").string(), "--align", "se2", "--json", json.string()});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(contains(r.output, "ATE rmse [m]")) << r.output;
-  const JsonValue j = readJson(json);
-  EXPECT_EQ(j["estimates"][0]["ate"]["pairs"].num(), 40);
-  EXPECT_LT(j["estimates"][0]["ate"]["translation_m"]["max"].num(), 1e-6);
-  EXPECT_NEAR(j["estimates"][0]["alignment"]["yaw_deg"].num(), -90.0, 1e-6);
+  const nlohmann::json j = readJson(json);
+  EXPECT_EQ(j.at("estimates").at(0).at("ate").at("pairs").get<int>(), 40);
+  EXPECT_LT(j.at("estimates").at(0).at("ate").at("translation_m").at("max").get<double>(), 1e-6);
+  EXPECT_NEAR(j.at("estimates").at(0).at("alignment").at("yaw_deg").get<double>(), -90.0, 1e-6);
   r = runProgram("vslam-eval",
                  {"--ref", (dir_ / "ref.txt").string(), "--est", (dir_ / "est.txt").string(),
                   "--align", "none", "--json", json.string()});
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_GT(readJson(json)["estimates"][0]["ate"]["translation_m"]["min"].num(), 2.9);
+  EXPECT_GT(
+      readJson(json).at("estimates").at(0).at("ate").at("translation_m").at("min").get<double>(),
+      2.9);
 }
 
 TEST_F(EvalTool, OptionValuesMayFollowAnEqualsSign) {
@@ -428,4 +448,106 @@ TEST_F(EvalTool, WrongMessageTypeOnAChannelIsNamed) {
       runCli({log.string(), "--map-channel", "POSE_ESTIMATE", "--est-channel", "POSE_ODOMETRY"});
   EXPECT_EQ(r2.code, 1);
   EXPECT_TRUE(contains(r2.err, "is not vslam.map_t")) << r2.err;
+}
+
+// scripts/accuracy, scripts/benchmark-homes and docs/evaluation.md show the
+// report in this order; a reordering would show as a changed file.
+TEST_F(EvalTool, JsonKeysKeepTheirOrder) {
+  const fs::path log = dir_ / "run.lcmlog", json = dir_ / "out.json";
+  writeDriveLog(log, {});
+  ASSERT_EQ(runCli({log.string(), "--json", json.string()}).code, 0);
+  const auto j = nlohmann::ordered_json::parse(vslam::test::fileBytes(json));
+  EXPECT_EQ(keysInOrder(j), (std::vector<std::string>{"tool", "mode", "input", "parameters",
+                                                      "reference", "estimates", "landmarks"}));
+  EXPECT_EQ(
+      keysInOrder(j.at("parameters")),
+      (std::vector<std::string>{"max_diff_s", "offset_s", "align", "rpe_delta", "rpe_delta_unit"}));
+  const auto& e = j.at("estimates").at(0);
+  EXPECT_EQ(keysInOrder(e),
+            (std::vector<std::string>{"name", "kind", "source", "poses", "duration_s",
+                                      "path_length_m", "alignment", "ate", "rpe"}));
+  EXPECT_EQ(keysInOrder(e.at("rpe")),
+            (std::vector<std::string>{"pairs", "reference_max_time_diff_s", "translation_m",
+                                      "rotation_deg"}));
+  EXPECT_EQ(keysInOrder(e.at("ate").at("translation_m")),
+            (std::vector<std::string>{"count", "rmse", "mean", "median", "std", "min", "max"}));
+  EXPECT_EQ(e.at("alignment").at("rotation_rowmajor").size(), 9u);
+}
+
+// No value (NaN, a step of -1) is null, not a number; strings from outside
+// are escaped; the keys keep the order the scripts read.
+TEST_F(EvalTool, AppearanceJsonWritesNullForNoValue) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  vslam::eval::AppearanceReport report;
+  report.input = dir_.string() + "/a \"quoted\"\\run.lcmlog";
+  report.steps.resize(3);
+  report.map_states = 4;
+  report.mean_hypotheses = 2.5;
+  report.mean_position_error = nan;
+  report.max_position_error = std::numeric_limits<double>::infinity();
+  vslam::eval::AppearanceKidnap kidnap;
+  kidnap.step = 7;
+  kidnap.t = 1.5;
+  kidnap.first_mapped_step = 9;
+  report.kidnaps.push_back(kidnap);
+  vslam::eval::AppearanceRelocalization reloc;
+  reloc.step = 12;
+  reloc.state_id = 3;
+  reloc.belief = 0.25;
+  reloc.position_error = nan;
+  report.relocalizations.push_back(reloc);
+  const fs::path json = dir_ / "appearance.json";
+  vslam::eval::writeAppearanceJson(json, report);
+
+  const auto j = nlohmann::ordered_json::parse(vslam::test::fileBytes(json));
+  EXPECT_EQ(j.at("input").get<std::string>(), report.input);
+  EXPECT_EQ(j.at("steps").get<int>(), 3);
+  EXPECT_TRUE(j.at("steps").is_number_integer());
+  EXPECT_EQ(j.at("map_states").get<int>(), 4);
+  EXPECT_EQ(j.at("map_links").get<int>(), -1);  // no map message: -1, as the struct says
+  EXPECT_DOUBLE_EQ(j.at("mean_hypotheses").get<double>(), 2.5);
+  EXPECT_TRUE(j.at("mean_position_error_m").is_null());
+  EXPECT_TRUE(j.at("max_position_error_m").is_null());
+  const auto& k = j.at("kidnaps").at(0);
+  EXPECT_EQ(keysInOrder(k),
+            (std::vector<std::string>{"kind", "step", "t", "status", "first_mapped_step",
+                                      "first_correct_step", "steps_to_relocalize"}));
+  EXPECT_EQ(k.at("kind").get<std::string>(), "carry");
+  EXPECT_EQ(k.at("status").get<std::string>(), "no mapped place reached");
+  EXPECT_EQ(k.at("first_mapped_step").get<int>(), 9);
+  EXPECT_TRUE(k.at("first_correct_step").is_null());
+  EXPECT_TRUE(k.at("steps_to_relocalize").is_null());
+  const auto& rl = j.at("relocalizations").at(0);
+  EXPECT_EQ(keysInOrder(rl),
+            (std::vector<std::string>{"step", "t", "state_id", "previous_state_id", "belief",
+                                      "position_error_m", "heading_error_rad", "correct"}));
+  EXPECT_EQ(rl.at("previous_state_id").get<int>(), -1);
+  EXPECT_TRUE(rl.at("position_error_m").is_null());
+  EXPECT_FALSE(rl.at("correct").get<bool>());
+  EXPECT_EQ(keysInOrder(j), (std::vector<std::string>{"input",
+                                                      "steps",
+                                                      "states_created",
+                                                      "map_states",
+                                                      "map_links",
+                                                      "mean_hypotheses",
+                                                      "max_hypotheses",
+                                                      "revisit_hypotheses",
+                                                      "mean_position_error_m",
+                                                      "weighted_position_error_m",
+                                                      "weighted_nearest_state_distance_m",
+                                                      "median_position_error_m",
+                                                      "max_position_error_m",
+                                                      "mean_abs_heading_error_rad",
+                                                      "fraction_within_action",
+                                                      "steps_best_revisit",
+                                                      "mean_best_position_error_m",
+                                                      "mean_nearest_state_distance_m",
+                                                      "mean_step_seconds",
+                                                      "revisit_steps",
+                                                      "revisit_steps_recognized",
+                                                      "wrong_revisit_steps",
+                                                      "relocalizations_correct",
+                                                      "relocalizations_wrong",
+                                                      "kidnaps",
+                                                      "relocalizations"}));
 }
