@@ -69,10 +69,7 @@ int runStageProcess(int argc, char** argv, const std::string& role, const StageR
   ProcessArgs args;
   if (const auto exit_code = parseArgs(argc, argv, program, &args)) return *exit_code;
   if (args.instance.empty()) args.instance = role;
-  if (args.config_file.empty()) {
-    const char* env = std::getenv("VSLAM_CONFIG");
-    args.config_file = env && *env ? env : "config/vslam.yaml";
-  }
+  args.config_file = config::resolveStackConfig(args.config_file);
   log::setProcessName(args.instance);
   tuneAllocatorForSteadyState();
 

@@ -64,6 +64,12 @@ std::vector<std::string> StackConfig::absentCameras(const std::string& instance)
   return absent;
 }
 
+std::string resolveStackConfig(const std::string& command_line) {
+  if (!command_line.empty()) return command_line;
+  const char* env = std::getenv("VSLAM_CONFIG");
+  return env && *env ? env : kDefaultStackConfig;
+}
+
 std::string resolveLcmUrl(const std::string& command_line, const std::string& config_url) {
   std::string url;
   if (!command_line.empty()) {

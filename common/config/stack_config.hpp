@@ -38,6 +38,11 @@ struct StackConfig {
   std::vector<std::string> absentCameras(const std::string& instance) const;
 };
 
+// The stack config file to read: `command_line` if given, else
+// $VSLAM_CONFIG, else kDefaultStackConfig (relative to the working directory).
+inline constexpr const char* kDefaultStackConfig = "config/vslam.yaml";
+std::string resolveStackConfig(const std::string& command_line);
+
 // Precedence: command line, then LCM_DEFAULT_URL, then the config file, then
 // kDefaultLcmUrl. A udpm URL without recv_buf_size gets a warning: it will
 // drop most camera frames.

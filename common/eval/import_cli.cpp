@@ -89,14 +89,9 @@ void addImportOptions(CLI::App& app, ImportArgs& a) {
 // config/vslam.yaml when it exists here (the processes' default). Its robot
 // file's camera sets the size the images must have and the default channels.
 void applyRobotFile(const ImportArgs& a, ImportOptions* o, std::ostream& err) {
-  fs::path file;
-  if (a.config) {
-    file = *a.config;
-  } else if (const char* env = std::getenv("VSLAM_CONFIG"); env && *env) {
-    file = env;
-  } else if (std::error_code ec; fs::is_regular_file("config/vslam.yaml", ec)) {
-    file = "config/vslam.yaml";
-  } else {
+  const fs::path file = config::resolveStackConfig(a.config ? a.config->string() : "");
+  if (std::error_code ec;
+      !a.config && file == config::kDefaultStackConfig && !fs::is_regular_file(file, ec)) {
     err << "vslam-import: note: no stack config (--config, $VSLAM_CONFIG or ./config/vslam.yaml):"
            " the image size is not checked against a robot file\n";
     return;

@@ -225,10 +225,7 @@ std::optional<int> parseMapToolArgs(const std::vector<std::string>& args, Option
     std::cerr << "vslam-map: " << e.what() << " (see --help)\n";
     return kExitUsage;
   }
-  if (o.config.empty()) {
-    const char* env = std::getenv("VSLAM_CONFIG");
-    o.config = env && *env ? env : "config/vslam.yaml";
-  }
+  o.config = config::resolveStackConfig(o.config);
   return std::nullopt;
 }
 

@@ -140,10 +140,7 @@ std::optional<int> parseCommandLine(const std::vector<std::string>& args, SimOpt
   // "--wait-for a,,b" names two instances.
   auto& names = options->wait_for;
   names.erase(std::remove(names.begin(), names.end(), std::string()), names.end());
-  if (options->config_file.empty()) {
-    const char* env = std::getenv("VSLAM_CONFIG");
-    options->config_file = env && *env ? env : "config/vslam.yaml";
-  }
+  options->config_file = config::resolveStackConfig(options->config_file);
   return std::nullopt;
 }
 

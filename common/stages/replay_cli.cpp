@@ -81,10 +81,7 @@ int runReplayCli(const std::vector<std::string>& args) {
   }
   options.input = input;
   options.output = output;
-  if (config_file.empty()) {
-    const char* env = std::getenv("VSLAM_CONFIG");
-    config_file = env && *env ? env : "config/vslam.yaml";
-  }
+  config_file = config::resolveStackConfig(config_file);
 
   try {
     const auto stack = config::StackConfig::loadFile(config_file);
