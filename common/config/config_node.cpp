@@ -9,20 +9,28 @@
 #include "util/strings.hpp"
 
 namespace vslam::config {
-namespace {
 
-std::string describeRange(const InRange& r) {
+std::string rangeText(const InRange& range) {
   std::ostringstream os;
-  if (std::isinf(r.min) && std::isinf(r.max)) return "a number";
-  if (std::isinf(r.max)) {
-    if (r.min == std::numeric_limits<double>::min()) return "a number > 0";
-    os << "a number >= " << r.min;
-  } else if (std::isinf(r.min)) {
-    os << "a number <= " << r.max;
+  if (std::isinf(range.min) && std::isinf(range.max)) return "";
+  if (std::isinf(range.max)) {
+    if (range.min == std::numeric_limits<double>::min()) return "> 0";
+    os << ">= " << range.min;
+  } else if (std::isinf(range.min)) {
+    os << "<= " << range.max;
   } else {
-    os << "a number in [" << r.min << ", " << r.max << "]";
+    os << "[" << range.min << ", " << range.max << "]";
   }
   return os.str();
+}
+
+namespace {
+
+// "a number in [a, b]", "a number >= a", ... (the bounds as rangeText writes them).
+std::string describeRange(const InRange& r) {
+  const std::string bounds = rangeText(r);
+  if (bounds.empty()) return "a number";
+  return bounds[0] == '[' ? "a number in " + bounds : "a number " + bounds;
 }
 
 const char* typeName(const YAML::Node& n) {
@@ -249,8 +257,13 @@ std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exis
   std::filesystem::path p(raw);
   if (p.is_relative()) p = doc_->base_dir / p;
   p = p.lexically_normal();
-  if (must_exist && !std::filesystem::exists(p)) {
-    throw error(key, "file '" + raw + "' not found (looked for " + p.string() + ")");
+  // The error_code form: a name the system refuses (too long, a bad
+  // component) is a config error like a missing file, not an exception of
+  // the filesystem library (found by fuzzing: tests/fuzz/fuzz_config).
+  std::error_code ec;
+  if (must_exist && !std::filesystem::exists(p, ec)) {
+    throw error(key, "file '" + raw + "' not found (looked for " + p.string() + ")" +
+                         (ec ? ": " + ec.message() : std::string()));
   }
   record(key, p.string(), false);
   return p;

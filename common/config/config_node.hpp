@@ -43,6 +43,8 @@ struct InRange {
   double min = -std::numeric_limits<double>::infinity();
   double max = std::numeric_limits<double>::infinity();
 };
+// "[a, b]", ">= a", "> 0", "<= b" or "" (no bound).
+std::string rangeText(const InRange& range);
 inline InRange positive() { return {std::numeric_limits<double>::min(), InRange{}.max}; }
 inline InRange nonNegative() { return {0.0, InRange{}.max}; }
 

@@ -1,23 +1,6 @@
 #include "config/param_table.hpp"
 
-#include <cmath>
-#include <limits>
-
 namespace vslam::config {
-
-std::string rangeText(const InRange& range) {
-  std::ostringstream os;
-  if (std::isinf(range.min) && std::isinf(range.max)) return "";
-  if (std::isinf(range.max)) {
-    if (range.min == std::numeric_limits<double>::min()) return "> 0";
-    os << ">= " << range.min;
-  } else if (std::isinf(range.min)) {
-    os << "<= " << range.max;
-  } else {
-    os << "[" << range.min << ", " << range.max << "]";
-  }
-  return os.str();
-}
 
 namespace {
 

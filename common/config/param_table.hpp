@@ -38,8 +38,6 @@ struct ParamDoc {
   std::string configured;  // the value a given block sets where it differs from the default
 };
 
-// "[a, b]", ">= a", "> 0", "<= b" or "" (no bound).
-std::string rangeText(const InRange& range);
 // A value as --print-config and the tables write it (the stream's default
 // format, as ConfigNode records it).
 template <class T>

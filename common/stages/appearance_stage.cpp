@@ -11,145 +11,174 @@
 
 namespace vslam::stages {
 
+namespace {
+
+using P = AppearanceParams;
+using config::InRange;
+
+// The snapshots: cameras, actions, histograms.
+config::ParamTable<P> observationKeys() {
+  config::ParamTable<P> t;
+  t.add("cameras", &P::camera_names,
+        "cameras of the robot file, one histogram each (e.g. `[forward, backward]`)")
+      .required()
+      .add(
+          "action_distance_m", [](auto& p) -> auto& { return p.action.distance_m; },
+          InRange{0.05, 100}, "m", "a move of this length is one action")
+      .required()
+      .degrees(
+          "action_turn_deg", [](auto& p) -> auto& { return p.action.turn_rad; }, InRange{1, 360},
+          "a turn of this angle is one action")
+      .required()
+      .add(
+          "action_rest_s", [](auto& p) -> auto& { return p.action.rest_s; }, InRange{0.02, 10}, "s",
+          "this long without odometry motion ends an action...")
+      .add(
+          "action_min_fraction", [](auto& p) -> auto& { return p.action.min_fraction; },
+          InRange{0.01, 1}, "", "...that covered at least this fraction of a move or turn")
+      .add("snapshot_timeout_s", &P::snapshot_timeout_s, InRange{0.05, 60}, "s",
+           "after an action, wait this long for every camera's next frame, then use those that "
+           "came")
+      .add(
+          "histogram_bins", [](auto& p) -> auto& { return p.histogram.bins; }, InRange{2, 1024}, "",
+          "k, bins over [-π, π]")
+      .required()
+      .add(
+          "min_gradient", [](auto& p) -> auto& { return p.histogram.min_magnitude; },
+          config::nonNegative(), "grey levels",
+          "Sobel magnitude a pixel needs to count (flat regions have no orientation)")
+      .required()
+      .add(
+          "histogram_grid_cols", [](auto& p) -> auto& { return p.histogram.grid_cols; },
+          InRange{1, 64}, "",
+          "a histogram per cell of a grid over the image, concatenated: its columns...")
+      .required()
+      .add(
+          "histogram_grid_rows", [](auto& p) -> auto& { return p.histogram.grid_rows; },
+          InRange{1, 64}, "", "...and rows; 1 x 1 is the paper's one histogram")
+      .required()
+      .check([](const config::ConfigNode& node, const P& p) {
+        if (appearance::histogramLength(p.histogram) > 4096) {
+          throw node.error("histogram_grid_cols",
+                           "histogram_bins x histogram_grid_cols x histogram_grid_rows is " +
+                               std::to_string(appearance::histogramLength(p.histogram)) +
+                               " values per camera; at most 4096");
+        }
+      });
+  return t;
+}
+
+// The path-hypothesis tree (paper section V) and its additions.
+config::ParamTable<P> hypothesisTreeKeys() {
+  config::ParamTable<P> t;
+  t.add(
+       "beta", [](auto& p) -> auto& { return p.slam.beta; }, config::positive(), "",
+       "β of P(z|x) = 1/(χ²)^β (eq. 5)")
+      .required()
+      .add(
+          "new_state_ratio", [](auto& p) -> auto& { return p.slam.new_state_ratio; },
+          InRange{1e-6, 10}, "",
+          "a new state is scored as a match at this fraction of the median χ² distance between "
+          "the snapshot and the stored states")
+      .required()
+      .add(
+          "min_chi2", [](auto& p) -> auto& { return p.slam.min_chi2; }, InRange{1e-9, 1}, "",
+          "floor of χ² in eq. 5")
+      .add(
+          "transition_gate", [](auto& p) -> auto& { return p.slam.gate; }, config::positive(), "",
+          "largest Mahalanobis² of a revisit (11.34: 99 % for 3 dof)")
+      .required()
+      .add(
+          "place_sigma_m", [](auto& p) -> auto& { return p.slam.place_sigma_m; },
+          config::positive(), "m",
+          "extent of a state: how far from a snapshot the robot is "
+          "still \"there\"")
+      .required()
+      .degrees(
+          "place_sigma_deg", [](auto& p) -> auto& { return p.slam.place_sigma_rad; },
+          InRange{0.01, 180}, "...and how far turned")
+      .required()
+      .add(
+          "min_belief", [](auto& p) -> auto& { return p.slam.min_belief; }, InRange{0, 1}, "",
+          "hypotheses below this belief are pruned")
+      .required()
+      .add(
+          "max_hypotheses", [](auto& p) -> auto& { return p.slam.max_hypotheses; },
+          InRange{1, 100000}, "", "bound on the number of hypotheses")
+      .required()
+      .add(
+          "revisit_horizon", [](auto& p) -> auto& { return p.slam.revisit_horizon; },
+          InRange{0, 100000}, "links",
+          "links traced either side of a re-visited state; 0 = along the path only, as the "
+          "paper")
+      .required()
+      .add(
+          "relocalization_prior", [](auto& p) -> auto& { return p.slam.relocalization_prior; },
+          InRange{0, 1}, "",
+          "prior of a relocalization seed: the probability that the robot was put down in that "
+          "state (carried, restarted) since the last step")
+      .required()
+      .add(
+          "relocalization_candidates",
+          [](auto& p) -> auto& { return p.slam.relocalization_candidates; }, InRange{0, 1000}, "",
+          "relocalization seeds per step: the states that look most like the snapshot; 0 = "
+          "the paper's tree only")
+      .required()
+      .add(
+          "relocalization_recent_visits",
+          [](auto& p) -> auto& { return p.slam.relocalization_recent_visits; }, InRange{0, 100000},
+          "visits",
+          "no seed in a state that the trace reaches or that is among the path's last visits "
+          "(there the trace decides; in a corridor the state a metre back looks like the "
+          "snapshot)")
+      .required()
+      .add(
+          "action_error", [](auto& p) -> auto& { return p.action_error.relative_translation; },
+          config::nonNegative(), "per m, per rad",
+          "the link's error proportional to the action (paper: 0.03)")
+      .required()
+      .add(
+          "odometry_sigma_translation",
+          [](auto& p) -> auto& { return p.action_error.odometry_translation; },
+          config::nonNegative(), "m/√m", "plus the odometry's random walk (as `deadreckon`)")
+      .required()
+      .add(
+          "odometry_sigma_rotation",
+          [](auto& p) -> auto& { return p.action_error.odometry_rotation; }, config::nonNegative(),
+          "rad/√(m+rad)", "...and its heading's")
+      .required();
+  return t;
+}
+
+// The map file.
+config::ParamTable<P> mapFileKeys() {
+  config::ParamTable<P> t;
+  t.add("map_period_s", &P::map_period_s, config::positive(), "s", "`APPEARANCE_MAP` period")
+      .path("map_file", &P::map_file, false,
+            "SQLite map file, relative to the config file; \"\" keeps the map in memory only")
+      .add("map_load", &P::map_load,
+           "start from the map file if it exists (required with `map_file`)")
+      .add("map_save", &P::map_save, "write the map file at shutdown (required with `map_file`)")
+      .add("map_save_period_s", &P::map_save_period_s, config::nonNegative(), "s",
+           "also write it this often (0: only at shutdown)")
+      .check([](const config::ConfigNode& node, const P& p) {
+        if (p.map_file.empty()) return;
+        for (const char* key : {"map_load", "map_save"}) {
+          if (!node.has(key)) throw node.error(key, "missing (required with map_file)");
+        }
+      });
+  return t;
+}
+
+}  // namespace
+
 const config::ParamTable<AppearanceParams>& AppearanceParams::table() {
-  using P = AppearanceParams;
-  using config::InRange;
   static const config::ParamTable<P> declared = [] {
+    const auto whole = [](auto& p) -> auto& { return p; };
     config::ParamTable<P> t;
-    t.add("cameras", &P::camera_names,
-          "cameras of the robot file, one histogram each (e.g. `[forward, backward]`)")
-        .required()
-        .add(
-            "action_distance_m", [](auto& p) -> auto& { return p.action.distance_m; },
-            InRange{0.05, 100}, "m", "a move of this length is one action")
-        .required()
-        .degrees(
-            "action_turn_deg", [](auto& p) -> auto& { return p.action.turn_rad; }, InRange{1, 360},
-            "a turn of this angle is one action")
-        .required()
-        .add(
-            "action_rest_s", [](auto& p) -> auto& { return p.action.rest_s; }, InRange{0.02, 10},
-            "s", "this long without odometry motion ends an action...")
-        .add(
-            "action_min_fraction", [](auto& p) -> auto& { return p.action.min_fraction; },
-            InRange{0.01, 1}, "", "...that covered at least this fraction of a move or turn")
-        .add("snapshot_timeout_s", &P::snapshot_timeout_s, InRange{0.05, 60}, "s",
-             "after an action, wait this long for every camera's next frame, then use those that "
-             "came")
-        .add(
-            "histogram_bins", [](auto& p) -> auto& { return p.histogram.bins; }, InRange{2, 1024},
-            "", "k, bins over [-π, π]")
-        .required()
-        .add(
-            "min_gradient", [](auto& p) -> auto& { return p.histogram.min_magnitude; },
-            config::nonNegative(), "grey levels",
-            "Sobel magnitude a pixel needs to count (flat regions have no orientation)")
-        .required()
-        .add(
-            "histogram_grid_cols", [](auto& p) -> auto& { return p.histogram.grid_cols; },
-            InRange{1, 64}, "",
-            "a histogram per cell of a grid over the image, concatenated: its columns...")
-        .required()
-        .add(
-            "histogram_grid_rows", [](auto& p) -> auto& { return p.histogram.grid_rows; },
-            InRange{1, 64}, "", "...and rows; 1 x 1 is the paper's one histogram")
-        .required()
-        .add(
-            "beta", [](auto& p) -> auto& { return p.slam.beta; }, config::positive(), "",
-            "β of P(z|x) = 1/(χ²)^β (eq. 5)")
-        .required()
-        .add(
-            "new_state_ratio", [](auto& p) -> auto& { return p.slam.new_state_ratio; },
-            InRange{1e-6, 10}, "",
-            "a new state is scored as a match at this fraction of the median χ² distance between "
-            "the snapshot and the stored states")
-        .required()
-        .add(
-            "min_chi2", [](auto& p) -> auto& { return p.slam.min_chi2; }, InRange{1e-9, 1}, "",
-            "floor of χ² in eq. 5")
-        .add(
-            "transition_gate", [](auto& p) -> auto& { return p.slam.gate; }, config::positive(), "",
-            "largest Mahalanobis² of a revisit (11.34: 99 % for 3 dof)")
-        .required()
-        .add(
-            "place_sigma_m", [](auto& p) -> auto& { return p.slam.place_sigma_m; },
-            config::positive(), "m",
-            "extent of a state: how far from a snapshot the robot is "
-            "still \"there\"")
-        .required()
-        .degrees(
-            "place_sigma_deg", [](auto& p) -> auto& { return p.slam.place_sigma_rad; },
-            InRange{0.01, 180}, "...and how far turned")
-        .required()
-        .add(
-            "min_belief", [](auto& p) -> auto& { return p.slam.min_belief; }, InRange{0, 1}, "",
-            "hypotheses below this belief are pruned")
-        .required()
-        .add(
-            "max_hypotheses", [](auto& p) -> auto& { return p.slam.max_hypotheses; },
-            InRange{1, 100000}, "", "bound on the number of hypotheses")
-        .required()
-        .add(
-            "revisit_horizon", [](auto& p) -> auto& { return p.slam.revisit_horizon; },
-            InRange{0, 100000}, "links",
-            "links traced either side of a re-visited state; 0 = along the path only, as the "
-            "paper")
-        .required()
-        .add(
-            "relocalization_prior", [](auto& p) -> auto& { return p.slam.relocalization_prior; },
-            InRange{0, 1}, "",
-            "prior of a relocalization seed: the probability that the robot was put down in that "
-            "state (carried, restarted) since the last step")
-        .required()
-        .add(
-            "relocalization_candidates",
-            [](auto& p) -> auto& { return p.slam.relocalization_candidates; }, InRange{0, 1000}, "",
-            "relocalization seeds per step: the states that look most like the snapshot; 0 = "
-            "the paper's tree only")
-        .required()
-        .add(
-            "relocalization_recent_visits",
-            [](auto& p) -> auto& { return p.slam.relocalization_recent_visits; },
-            InRange{0, 100000}, "visits",
-            "no seed in a state that the trace reaches or that is among the path's last visits "
-            "(there the trace decides; in a corridor the state a metre back looks like the "
-            "snapshot)")
-        .required()
-        .add(
-            "action_error", [](auto& p) -> auto& { return p.action_error.relative_translation; },
-            config::nonNegative(), "per m, per rad",
-            "the link's error proportional to the action (paper: 0.03)")
-        .required()
-        .add(
-            "odometry_sigma_translation",
-            [](auto& p) -> auto& { return p.action_error.odometry_translation; },
-            config::nonNegative(), "m/√m", "plus the odometry's random walk (as `deadreckon`)")
-        .required()
-        .add(
-            "odometry_sigma_rotation",
-            [](auto& p) -> auto& { return p.action_error.odometry_rotation; },
-            config::nonNegative(), "rad/√(m+rad)", "...and its heading's")
-        .required()
-        .add("map_period_s", &P::map_period_s, config::positive(), "s", "`APPEARANCE_MAP` period")
-        .path("map_file", &P::map_file, false,
-              "SQLite map file, relative to the config file; \"\" keeps the map in memory only")
-        .add("map_load", &P::map_load,
-             "start from the map file if it exists (required with `map_file`)")
-        .add("map_save", &P::map_save, "write the map file at shutdown (required with `map_file`)")
-        .add("map_save_period_s", &P::map_save_period_s, config::nonNegative(), "s",
-             "also write it this often (0: only at shutdown)")
-        .check([](const config::ConfigNode& node, const P& p) {
-          if (appearance::histogramLength(p.histogram) > 4096) {
-            throw node.error("histogram_grid_cols",
-                             "histogram_bins x histogram_grid_cols x histogram_grid_rows is " +
-                                 std::to_string(appearance::histogramLength(p.histogram)) +
-                                 " values per camera; at most 4096");
-          }
-          if (p.map_file.empty()) return;
-          for (const char* key : {"map_load", "map_save"}) {
-            if (!node.has(key)) throw node.error(key, "missing (required with map_file)");
-          }
-        });
+    t.merge(whole, observationKeys())
+        .merge(whole, hypothesisTreeKeys())
+        .merge(whole, mapFileKeys());
     return t;
   }();
   return declared;
@@ -182,7 +211,7 @@ AppearanceStage::AppearanceStage(AppearanceParams params)
             appearance::histogramLength(params_.histogram)),
       detector_(params_.action) {
   slam_.setActionModel(params_.action_error);
-  if (params_.map_load && std::filesystem::exists(params_.map_file)) {
+  if (std::error_code ec; params_.map_load && std::filesystem::exists(params_.map_file, ec)) {
     // A map that cannot be used is a configuration error: better to stop
     // than to overwrite it with a fresh one at shutdown.
     const auto map = appearance::loadMap(params_.map_file);
