@@ -17,6 +17,8 @@ which overflows: one small message claiming 5e8 elements crashes the
 receiver. The walk rejects, before the decoder runs:
   - a negative array count or string length, or a string length of 0 (the
     decoder would assign length - 1 characters);
+  - a string that is not a C string (a NUL inside, or no NUL at the end):
+    decoded, it would encode again to other bytes;
   - an array whose count times its element's minimum encoded size is more
     than the bytes left (computed in 64 bits, saturating, never overflowing);
   - an array whose count is more than the whole message's size: elements
@@ -298,6 +300,14 @@ class Reader {
     left_ -= N;
     return true;
   }
+  // The next n bytes are a C string: no NUL before the last, which is NUL.
+  bool isCString(int64_t n) const {
+    if (n < 1 || n > left()) return false;
+    for (int64_t i = 0; i + 1 < n; ++i) {
+      if (data_[i] == 0) return false;
+    }
+    return data_[n - 1] == 0;
+  }
   bool skip(int64_t n) {
     if (n < 0 || n > left()) return false;
     data_ += n;
@@ -375,7 +385,9 @@ inline bool checkArray(Reader& r, std::string* why, const char* field,
   }
   return true;
 }
-// A string: int32 length counting the NUL (so >= 1), then that many bytes.
+// A string: int32 length counting the NUL (so >= 1), then that many bytes,
+// the last the NUL and no other (a NUL inside would not survive decoding and
+// encoding again: the encoder writes the C string).
 inline bool skipString(Reader& r, std::string* why, const char* field) {
   int64_t length = 0;
   if (!r.readInt<4>(&length)) return truncated(r, why, field, 4);
@@ -383,7 +395,12 @@ inline bool skipString(Reader& r, std::string* why, const char* field) {
     return fail(why, std::string(field) + ": string length " + std::to_string(length) +
                          " (must count the NUL, so >= 1)");
   }
-  return r.skip(length) || truncated(r, why, field, length);
+  if (length > r.left()) return truncated(r, why, field, length);
+  if (!r.isCString(length)) {
+    return fail(why, std::string(field) + ": not a C string of " + std::to_string(length - 1) +
+                         " characters (a NUL inside, or none at the end)");
+  }
+  return r.skip(length);
 }
 
 template <class Msg>

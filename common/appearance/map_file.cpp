@@ -117,7 +117,7 @@ void saveMap(const std::filesystem::path& file, const SavedMap& map) {
 }
 
 SavedMap loadMap(const std::filesystem::path& file) {
-  if (!std::filesystem::is_regular_file(file)) {
+  if (std::error_code ec; !std::filesystem::is_regular_file(file, ec)) {
     throw MapFileError(file.string() + ": no such map file");
   }
   Db db(file, SQLITE_OPEN_READONLY);

@@ -32,6 +32,12 @@ long findNextSyncWord(FILE* file, long from) {
   return -1;
 }
 
+// Big-endian int32 (lcm_eventlog's byte order).
+int32_t bigEndian32(const unsigned char* b) {
+  return static_cast<int32_t>((uint32_t{b[0]} << 24) | (uint32_t{b[1]} << 16) |
+                              (uint32_t{b[2]} << 8) | uint32_t{b[3]});
+}
+
 }  // namespace
 
 LogReader::LogReader(const std::filesystem::path& log, LogDamage on_damage)
@@ -43,16 +49,62 @@ LogReader::LogReader(const std::filesystem::path& log, LogDamage on_damage)
   if (!file_->good()) throw LogError(name_ + ": cannot open the log for reading");
   fp_ = file_->getFilePtr();
   end_of_last_event_ = std::ftell(fp_);
+  std::fseek(fp_, 0, SEEK_END);
+  file_size_ = std::ftell(fp_);
+  std::fseek(fp_, end_of_last_event_, SEEK_SET);
+}
+
+// LCM 1.3.1's reader allocates an event's claimed data length + 1, computed
+// in int, and reads into the allocation unchecked: a damaged header claiming
+// 2^31 - 1 bytes makes it read into a failed allocation (a crash). So the
+// header of the event it will read next (at the next sync word, as it
+// searches) is checked against the file first. Returns that event's byte if
+// it claims more than the file holds after it, else -1; the file position
+// is left where it was.
+long LogReader::nextOversizedEvent(int64_t* claimed) {
+  const long pos = std::ftell(fp_);
+  const long sync = findNextSyncWord(fp_, pos);
+  long oversized = -1;
+  unsigned char header[kEventHeaderBytes];
+  if (sync >= 0 && std::fseek(fp_, sync, SEEK_SET) == 0 &&
+      std::fread(header, 1, sizeof header, fp_) == sizeof header) {
+    const int32_t channel_bytes = bigEndian32(header + 20);
+    const int32_t data_bytes = bigEndian32(header + 24);
+    // LCM itself refuses channel lengths outside 1..999 and negative data.
+    if (channel_bytes > 0 && channel_bytes < 1000 && data_bytes >= 0 &&
+        data_bytes > file_size_ - (sync + kEventHeaderBytes + channel_bytes)) {
+      oversized = sync;
+      *claimed = data_bytes;
+    }
+  }
+  std::fseek(fp_, pos, SEEK_SET);
+  return oversized;
 }
 
 LogReader::~LogReader() = default;
 
 const lcm::LogEvent* LogReader::next() {
   while (!at_end_) {
+    int64_t claimed = 0;
+    const long oversized = nextOversizedEvent(&claimed);
+    if (oversized >= 0) {
+      // The last event, cut short: a damaged tail (finish says so).
+      const bool last = findNextSyncWord(fp_, oversized + 1) < 0;
+      std::fseek(fp_, end_of_last_event_, SEEK_SET);  // (the search moved it)
+      if (on_damage_ == LogDamage::kThrow && !last) {
+        std::ostringstream os;
+        os << name_ << " is damaged: the event at byte " << oversized << " claims " << claimed
+           << " data bytes, more than the " << file_size_ << "-byte file holds";
+        throw LogError(os.str());
+      }
+      if (!last && skipToNextEvent(oversized + 1)) continue;
+      finish();
+      return nullptr;
+    }
     const lcm::LogEvent* ev = file_->readNextEvent();
     if (!ev) {
       // LCM's reader stops at a damaged event header.
-      if (on_damage_ == LogDamage::kSkip && skipToNextEvent()) continue;
+      if (on_damage_ == LogDamage::kSkip && skipToNextEvent(end_of_last_event_ + 1)) continue;
       finish();
       return nullptr;
     }
@@ -82,10 +134,10 @@ const lcm::LogEvent* LogReader::next() {
   return nullptr;
 }
 
-// Skips damaged bytes to the next sync word, so one bad event does not lose
-// the rest of the log; false if there is none.
-bool LogReader::skipToNextEvent() {
-  const long resume = findNextSyncWord(fp_, end_of_last_event_ + 1);
+// Skips damaged bytes to the next sync word at or after `from`, so one bad
+// event does not lose the rest of the log; false if there is none.
+bool LogReader::skipToNextEvent(long from) {
+  const long resume = findNextSyncWord(fp_, from);
   if (resume < 0) return false;
   log::warn("input log ", name_, ": damaged data at bytes ", end_of_last_event_, "..", resume,
             "; skipped to the next event");
@@ -99,8 +151,7 @@ bool LogReader::skipToNextEvent() {
 // after the last complete event tell them apart.
 void LogReader::finish() {
   at_end_ = true;
-  std::fseek(fp_, 0, SEEK_END);
-  const long file_size = std::ftell(fp_);
+  const long file_size = file_size_;
   if (end_of_last_event_ < 0 || file_size <= end_of_last_event_) return;
   stats_.tail_bytes = file_size - end_of_last_event_;
   if (on_damage_ == LogDamage::kSkip) return;

@@ -53,7 +53,8 @@ class LogReader {
   const std::string& name() const { return name_; }
 
  private:
-  bool skipToNextEvent();
+  long nextOversizedEvent(int64_t* claimed);
+  bool skipToNextEvent(long from);
   void finish();
 
   std::string name_;
@@ -61,6 +62,7 @@ class LogReader {
   std::unique_ptr<lcm::LogFile> file_;
   FILE* fp_ = nullptr;
   long end_of_last_event_ = 0;
+  long file_size_ = 0;
   long event_offset_ = 0;
   int64_t last_eventnum_ = -1;
   bool at_end_ = false;

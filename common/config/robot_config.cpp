@@ -35,7 +35,9 @@ CameraIntrinsics readOpenCvCalibration(const std::filesystem::path& file) {
   auto fail = [&](const std::string& what, const std::string& problem) {
     return ConfigError(name, what, problem);
   };
-  if (!std::filesystem::is_regular_file(file)) throw fail("", "no such calibration file");
+  if (std::error_code ec; !std::filesystem::is_regular_file(file, ec)) {
+    throw fail("", "no such calibration file");
+  }
   cv::FileStorage fs;
   try {
     fs.open(name, cv::FileStorage::READ);

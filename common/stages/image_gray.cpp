@@ -4,6 +4,21 @@
 #include <opencv2/imgproc.hpp>
 
 namespace vslam::stages {
+namespace {
+
+// Why the pixels of a raw (gray8, bgr8) image cannot be read as announced.
+std::optional<std::string> rawDataProblem(const vslam::image_t& msg, int channels) {
+  if (msg.width <= 0 || msg.height <= 0) {
+    return "image size " + std::to_string(msg.width) + "x" + std::to_string(msg.height);
+  }
+  if (msg.row_stride < static_cast<int64_t>(msg.width) * channels ||
+      msg.data.size() < static_cast<size_t>(msg.height) * static_cast<size_t>(msg.row_stride)) {
+    return std::string("image data shorter than height x row_stride");
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 std::optional<std::string> checkImage(const config::CameraConfig& camera,
                                       const vslam::image_t& msg) {
@@ -15,12 +30,7 @@ std::optional<std::string> checkImage(const config::CameraConfig& camera,
   switch (msg.encoding) {
     case vslam::image_t::ENCODING_GRAY8:
     case vslam::image_t::ENCODING_BGR8: {
-      const int channels = msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3;
-      if (msg.row_stride < msg.width * channels ||
-          msg.data.size() < static_cast<size_t>(msg.height) * static_cast<size_t>(msg.row_stride)) {
-        return std::string("image data shorter than height x row_stride");
-      }
-      return std::nullopt;
+      return rawDataProblem(msg, msg.encoding == vslam::image_t::ENCODING_GRAY8 ? 1 : 3);
     }
     case vslam::image_t::ENCODING_JPEG:
       return std::nullopt;  // checked when decoded
@@ -38,6 +48,11 @@ std::optional<std::string> imageToGray(const vslam::image_t& msg, cv::Mat* gray)
     return std::nullopt;
   }
   const bool is_gray = msg.encoding == vslam::image_t::ENCODING_GRAY8;
+  if (!is_gray && msg.encoding != vslam::image_t::ENCODING_BGR8) {
+    return "unknown encoding " + std::to_string(msg.encoding);
+  }
+  // Checked again here: the view below reads height x row_stride bytes.
+  if (auto problem = rawDataProblem(msg, is_gray ? 1 : 3)) return problem;
   const cv::Mat view(msg.height, msg.width, is_gray ? CV_8UC1 : CV_8UC3,
                      const_cast<uint8_t*>(msg.data.data()), static_cast<size_t>(msg.row_stride));
   if (is_gray) {

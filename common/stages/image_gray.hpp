@@ -18,9 +18,10 @@ namespace vslam::stages {
 std::optional<std::string> checkImage(const config::CameraConfig& camera,
                                       const vslam::image_t& msg);
 
-// The pixels of a checked image as 8-bit gray in *gray (its storage reused):
+// The pixels of an image as 8-bit gray in *gray (its storage reused):
 // copied, converted from BGR, or decoded from JPEG (which must decode to the
-// announced size).
+// announced size). The raw encodings' sizes are checked here too, so an
+// unchecked message is refused, not read past its data.
 std::optional<std::string> imageToGray(const vslam::image_t& msg, cv::Mat* gray);
 
 }  // namespace vslam::stages

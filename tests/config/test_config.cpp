@@ -177,6 +177,13 @@ TEST(ConfigNode, PathsResolveRelativeToTheFile) {
   fs::remove_all(dir);
 }
 
+// Found by fuzzing (tests/fuzz/fuzz_config): a name the system refuses
+// escaped as a std::filesystem error and ended the process.
+TEST(ConfigNode, APathTheSystemRefusesIsAConfigError) {
+  const ConfigNode n = yaml("long: " + std::string(5000, 'x') + "\n");
+  expectConfigError([&] { n.getPath("long"); }, "long", "not found");
+}
+
 TEST(RobotConfig, ShippedRobotFileLoads) {
   const auto robot = vslam::config::RobotConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) /
                                                           "config/robot/sim_two_camera.yaml");

@@ -391,6 +391,27 @@ TEST(WireCheck, BadStringLengthsAreRejected) {
   }
 }
 
+// A string is a C string: found by fuzzing (tests/fuzz/fuzz_messages), a
+// NUL inside decoded to a std::string that encoded again to other bytes
+// (the encoder writes up to the first NUL, its size counts them all).
+TEST(WireCheck, StringsWithANulInsideOrNoneAtTheEndAreRejected) {
+  using vslam::landmark_request_t;
+  for (const std::string& body : {std::string("fro\0nt", 6), std::string("front")}) {
+    SCOPED_TRACE(body.size());
+    auto wire = Wire::of<landmark_request_t>().i64(1);
+    if (body.size() == 6) {
+      wire.str(body);  // "fro\0nt" then the NUL
+    } else {
+      wire.i32(5).i8('f').i8('r').i8('o').i8('n').i8('t');  // no NUL at the end
+    }
+    const auto bytes = wire.i64(0).i32(0).bytes();
+    landmark_request_t m{};
+    std::string why;
+    EXPECT_FALSE(checkedDecode(m, bytes.data(), bytes.size(), &why));
+    EXPECT_NE(why.find("requester: not a C string"), std::string::npos) << why;
+  }
+}
+
 TEST(WireCheck, AnotherTypesFingerprintIsRejected) {
   const auto bytes = tt::encodeToBytes(tt::filled<vslam::landmark_request_t>(1));
   vslam::landmark_summary_t m{};

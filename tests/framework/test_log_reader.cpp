@@ -1,0 +1,82 @@
+// bus::LogReader: the one reader of LCM logs, strict for the tools and
+// skipping for the replay, against damage LCM's own reader cannot survive.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "bus/log_reader.hpp"
+#include "bus/log_writer.hpp"
+
+namespace fs = std::filesystem;
+using vslam::bus::LogDamage;
+using vslam::bus::LogError;
+using vslam::bus::LogReader;
+
+namespace {
+
+fs::path tempLog(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("vslam_test_log_reader_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+// An event header (lcm_eventlog format) whose data length is `claimed`,
+// followed by no data.
+void appendHeaderClaiming(const fs::path& log, int32_t claimed) {
+  std::ofstream out(log, std::ios::binary | std::ios::app);
+  auto be = [&](uint64_t v, int bytes) {
+    for (int i = bytes - 1; i >= 0; --i) out.put(static_cast<char>((v >> (8 * i)) & 0xff));
+  };
+  be(0xEDA1DA01, 4);  // sync
+  be(2, 8);           // event number
+  be(1700000000000000ULL, 8);
+  be(4, 4);  // channel length
+  be(static_cast<uint32_t>(claimed), 4);
+  out << "EVIL";
+}
+
+}  // namespace
+
+// Found by fuzzing (tests/fuzz/fuzz_log): LCM 1.3.1 allocates the claimed
+// length + 1 in int, so 2^31 - 1 overflows, the allocation fails and it
+// reads into it: a crash of every tool on one damaged header.
+TEST(LogReader, AnEventClaimingMoreThanTheFileHoldsIsDamageNotACrash) {
+  const fs::path log = tempLog("oversized.lcmlog");
+  {
+    vslam::bus::LogWriter writer(log);
+    writer.write(1, "A", std::vector<uint8_t>{1, 2, 3});
+    writer.write(2, "B", std::vector<uint8_t>{4, 5});
+  }
+  appendHeaderClaiming(log, INT32_MAX);
+  {  // and one good event after the damage
+    std::ofstream out(log, std::ios::binary | std::ios::app);
+    const fs::path good = tempLog("good.lcmlog");
+    {
+      vslam::bus::LogWriter writer(good);
+      writer.write(3, "C", std::vector<uint8_t>{6});
+    }
+    std::ifstream in(good, std::ios::binary);
+    out << in.rdbuf();
+  }
+
+  LogReader strict(log, LogDamage::kThrow);
+  ASSERT_NE(strict.next(), nullptr);
+  ASSERT_NE(strict.next(), nullptr);
+  try {
+    strict.next();
+    FAIL() << "no LogError";
+  } catch (const LogError& e) {
+    EXPECT_NE(std::string(e.what()).find("claims 2147483647 data bytes"), std::string::npos)
+        << e.what();
+  }
+
+  LogReader skipping(log, LogDamage::kSkip);
+  std::vector<std::string> channels;
+  while (const lcm::LogEvent* e = skipping.next()) channels.push_back(e->channel);
+  EXPECT_EQ(channels, (std::vector<std::string>{"A", "B", "C"}));
+  EXPECT_GT(skipping.stats().bytes_skipped, 0);
+}
