@@ -2,7 +2,6 @@
 
 #include <sqlite3.h>
 
-#include <cstring>
 #include <map>
 #include <sstream>
 
@@ -18,15 +17,7 @@ using Db = sqlite::Database<MapFileError>;
 
 using Statement = sqlite::Statement<MapFileError>;
 
-// Little-endian encoding (the machines we run on are little-endian; the
-// static_assert keeps it honest).
-static_assert(sizeof(float) == 4 && sizeof(double) == 8);
-template <class T>
-std::vector<uint8_t> toBlob(const T* values, size_t n) {
-  std::vector<uint8_t> out(n * sizeof(T));
-  if (n > 0) std::memcpy(out.data(), values, out.size());
-  return out;
-}
+static_assert(sizeof(float) == 4 && sizeof(double) == 8, "blobs are float32 and float64");
 std::string joinCameras(const std::vector<std::string>& cameras) {
   std::string s;
   for (size_t i = 0; i < cameras.size(); ++i) s += (i ? "," : "") + cameras[i];
@@ -59,54 +50,61 @@ void saveMap(const std::filesystem::path& file, const SavedMap& map) {
         " dx REAL, dy REAL, dtheta REAL, relative_translation REAL, relative_rotation REAL,"
         " odometry_translation REAL, odometry_rotation REAL, covariance BLOB);");
     {
-      Statement meta(db, "INSERT INTO meta VALUES (?, ?)");
+      Statement meta(db, "INSERT INTO meta (key, value) VALUES (:key, :value)");
       const std::pair<std::string, std::string> rows[] = {{"format", kFormat},
                                                           {"version", kVersion},
                                                           {"bins", std::to_string(map.bins)},
                                                           {"cameras", joinCameras(map.cameras)}};
       for (const auto& [k, v] : rows) {
-        meta.bind(1, k);
-        meta.bind(2, v);
+        meta.bind(":key", k);
+        meta.bind(":value", v);
         meta.run();
       }
     }
     {
-      Statement st(db, "INSERT INTO states VALUES (?, ?, ?, ?, ?)");
-      Statement hist(db, "INSERT INTO histograms VALUES (?, ?, ?)");
+      Statement st(db,
+                   "INSERT INTO states (state_id, utime, odom_x, odom_y, odom_theta)"
+                   " VALUES (:state_id, :utime, :odom_x, :odom_y, :odom_theta)");
+      Statement hist(db,
+                     "INSERT INTO histograms (state_id, camera, bins)"
+                     " VALUES (:state_id, :camera, :bins)");
       for (const auto& s : map.states) {
-        st.bind(1, s.id);
-        st.bind(2, s.utime);
-        st.bind(3, s.odometry.x);
-        st.bind(4, s.odometry.y);
-        st.bind(5, s.odometry.theta);
+        st.bind(":state_id", s.id);
+        st.bind(":utime", s.utime);
+        st.bind(":odom_x", s.odometry.x);
+        st.bind(":odom_y", s.odometry.y);
+        st.bind(":odom_theta", s.odometry.theta);
         st.run();
         for (size_t c = 0; c < s.histograms.size(); ++c) {
-          const auto blob = toBlob(s.histograms[c].data(), s.histograms[c].size());
-          hist.bind(1, s.id);
-          hist.bind(2, static_cast<int64_t>(c));
-          sqlite3_bind_blob(hist.get(), 3, blob.data(), static_cast<int>(blob.size()),
-                            SQLITE_TRANSIENT);
+          hist.bind(":state_id", s.id);
+          hist.bind(":camera", c);
+          hist.bindBlob(":bins", s.histograms[c]);
           hist.run();
         }
       }
     }
     {
-      Statement p(db, "INSERT INTO path VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      Statement p(db,
+                  "INSERT INTO path (seq, state_id, known, dx, dy, dtheta, relative_translation,"
+                  " relative_rotation, odometry_translation, odometry_rotation, covariance)"
+                  " VALUES (:seq, :state_id, :known, :dx, :dy, :dtheta, :relative_translation,"
+                  " :relative_rotation, :odometry_translation, :odometry_rotation, :covariance)");
       for (size_t i = 0; i < map.path.size(); ++i) {
         const auto& v = map.path[i];
         const Link& l = v.link;
-        p.bind(1, static_cast<int64_t>(i));
-        p.bind(2, v.state_id);
-        p.bind(3, int64_t{(i > 0 && l.known) ? 1 : 0});
-        p.bind(4, l.action.x);
-        p.bind(5, l.action.y);
-        p.bind(6, l.action.theta);
-        p.bind(7, l.model.relative_translation);
-        p.bind(8, l.model.relative_rotation);
-        p.bind(9, l.model.odometry_translation);
-        p.bind(10, l.model.odometry_rotation);
-        const auto cov = toBlob(l.covariance.data(), 9);  // symmetric: row- = column-major
-        sqlite3_bind_blob(p.get(), 11, cov.data(), static_cast<int>(cov.size()), SQLITE_TRANSIENT);
+        p.bind(":seq", i);
+        p.bind(":state_id", v.state_id);
+        p.bind(":known", (i > 0 && l.known) ? 1 : 0);
+        p.bind(":dx", l.action.x);
+        p.bind(":dy", l.action.y);
+        p.bind(":dtheta", l.action.theta);
+        p.bind(":relative_translation", l.model.relative_translation);
+        p.bind(":relative_rotation", l.model.relative_rotation);
+        p.bind(":odometry_translation", l.model.odometry_translation);
+        p.bind(":odometry_rotation", l.model.odometry_rotation);
+        // Symmetric, so row- and column-major are the same nine values.
+        p.bindBlob(":covariance",
+                   std::vector<double>(l.covariance.data(), l.covariance.data() + 9));
         p.run();
       }
     }
@@ -127,9 +125,7 @@ SavedMap loadMap(const std::filesystem::path& file) {
   try {
     Statement s(db, "SELECT key, value FROM meta");
     while (s.step()) {
-      const auto* k = sqlite3_column_text(s.get(), 0);
-      const auto* v = sqlite3_column_text(s.get(), 1);
-      if (k && v) meta[reinterpret_cast<const char*>(k)] = reinterpret_cast<const char*>(v);
+      if (!s.isNull(0) && !s.isNull(1)) meta[s.text(0)] = s.text(1);
     }
   } catch (const MapFileError&) {
     throw MapFileError(name + ": not an appearance map (no meta table)");

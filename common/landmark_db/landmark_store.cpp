@@ -18,6 +18,7 @@ constexpr const char* kFormat = "vslam-landmark-map";
 
 static_assert(sizeof(float) == 4, "blobs are float32");
 
+using Database = sqlite::Database<MapFileError>;
 using Statement = sqlite::Statement<MapFileError>;
 
 constexpr const char* kInfoColumns =
@@ -60,10 +61,7 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
   in_memory_ = file_.empty() || file_ == ":memory:";
   if (in_memory_) {
     file_ = ":memory:";
-    if (sqlite3_open_v2(":memory:", &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
-        SQLITE_OK) {
-      throw MapFileError("cannot open an in-memory database");
-    }
+    db_ = std::make_unique<Database>(":memory:", SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
     read_only_ = false;
     createSchema(options);
     readMeta();
@@ -79,22 +77,13 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
     if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-    const std::string final_name = file_;
-    file_ = tmp.string();
-    if (sqlite3_open_v2(file_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
-        SQLITE_OK) {
-      const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
-      sqlite3_close(db_);
-      db_ = nullptr;
-      throw MapFileError(final_name + ": cannot create: " + why);
-    }
+    db_ = std::make_unique<Database>(tmp, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE,
+                                     "cannot create");
     createSchema(options);
-    exec("PRAGMA journal_mode=DELETE");
-    sqlite3_close(db_);
-    db_ = nullptr;
-    std::filesystem::rename(tmp, final_name, ec);
-    if (ec) throw MapFileError(final_name + ": cannot create: " + ec.message());
-    file_ = final_name;
+    db_->exec("PRAGMA journal_mode=DELETE");
+    db_.reset();
+    std::filesystem::rename(tmp, file_, ec);
+    if (ec) throw MapFileError(file_ + ": cannot create: " + ec.message());
   }
   // An existing file: check what it is before SQLite may write anything.
   {
@@ -118,21 +107,16 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     if (!fileExists(file_ + suffix)) new_sidecars.push_back(file_ + suffix);
   }
   auto closeAndClean = [&] {
-    sqlite3_close(db_);
-    db_ = nullptr;
+    db_.reset();
     std::error_code ec;
     for (const std::string& f : new_sidecars) std::filesystem::remove(f, ec);
   };
   const int flags = read_only_ ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
-  if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
-    const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
-    closeAndClean();
-    throw MapFileError(file_ + ": cannot open: " + why);
-  }
   try {
+    db_ = std::make_unique<Database>(file_, flags, "cannot open");
     checkIdentity();
     if (options.quick_check) {
-      Statement s(db_, "PRAGMA quick_check", file_);
+      Statement s(*db_, "PRAGMA quick_check");
       std::string problems;
       while (s.step()) {
         const std::string line = s.text(0);
@@ -144,14 +128,14 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
       }
     }
     if (!read_only_) {
-      exec("PRAGMA journal_mode=WAL");
-      exec(options.power_safe ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
+      db_->exec("PRAGMA journal_mode=WAL");
+      db_->exec(options.power_safe ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
       if (options.max_file_bytes > 0) {
-        Statement ps(db_, "PRAGMA page_size", file_);
+        Statement ps(*db_, "PRAGMA page_size");
         const int64_t page = ps.step() ? ps.int64(0) : 4096;
-        exec("PRAGMA max_page_count=" +
-             std::to_string(std::max<int64_t>(
-                 1, static_cast<int64_t>(options.max_file_bytes) / std::max<int64_t>(page, 512))));
+        db_->exec("PRAGMA max_page_count=" +
+                  std::to_string(std::max<int64_t>(1, static_cast<int64_t>(options.max_file_bytes) /
+                                                          std::max<int64_t>(page, 512))));
       }
     }
     readMeta();
@@ -165,39 +149,19 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
 }
 
 LandmarkStore::~LandmarkStore() {
-  if (db_ != nullptr) {
-    // Fold the WAL into the main file so the map is one file again.
-    if (!read_only_ && !in_memory_)
-      sqlite3_exec(db_, "PRAGMA wal_checkpoint(TRUNCATE)", nullptr, nullptr, nullptr);
-    sqlite3_close(db_);
-  }
-}
-
-void LandmarkStore::exec(const std::string& sql) {
-  char* err = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-    const std::string why = err ? err : sqlite3_errmsg(db_);
-    sqlite3_free(err);
-    throw MapFileError(file_ + ": " + why);
-  }
-}
-
-void LandmarkStore::fail(const std::string& what) {
-  throw MapFileError(file_ + ": " + what + ": " + sqlite3_errmsg(db_));
+  // Fold the WAL into the main file so the map is one file again.
+  if (db_ && !read_only_ && !in_memory_) db_->tryExec("PRAGMA wal_checkpoint(TRUNCATE)");
 }
 
 void LandmarkStore::checkIdentity() {
   int64_t app_id = 0, user_version = 0;
-  {
-    sqlite3_stmt* s = nullptr;
-    if (sqlite3_prepare_v2(db_, "PRAGMA application_id", -1, &s, nullptr) != SQLITE_OK ||
-        sqlite3_step(s) != SQLITE_ROW) {
-      const std::string why = sqlite3_errmsg(db_);
-      sqlite3_finalize(s);
-      throw MapFileError(file_ + ": not a readable SQLite database (" + why + "); left untouched");
-    }
-    app_id = sqlite3_column_int64(s, 0);
-    sqlite3_finalize(s);
+  try {
+    Statement s(*db_, "PRAGMA application_id");
+    if (!s.step()) throw MapFileError(file_ + ": no application_id");
+    app_id = s.int64(0);
+  } catch (const MapFileError&) {
+    throw MapFileError(file_ + ": not a readable SQLite database (" + db_->lastError() +
+                       "); left untouched");
   }
   if (app_id != kApplicationId) {
     std::ostringstream os;
@@ -206,7 +170,7 @@ void LandmarkStore::checkIdentity() {
     throw MapFileError(os.str());
   }
   {
-    Statement s(db_, "PRAGMA user_version", file_);
+    Statement s(*db_, "PRAGMA user_version");
     if (s.step()) user_version = s.int64(0);
   }
   if (user_version != kSchemaVersion) {
@@ -217,9 +181,9 @@ void LandmarkStore::checkIdentity() {
 }
 
 void LandmarkStore::createSchema(const StoreOptions& options) {
-  exec("PRAGMA application_id=" + std::to_string(kApplicationId) +
-       "; PRAGMA user_version=" + std::to_string(kSchemaVersion) + ";");
-  exec(
+  db_->exec("PRAGMA application_id=" + std::to_string(kApplicationId) +
+            "; PRAGMA user_version=" + std::to_string(kSchemaVersion) + ";");
+  db_->exec(
       "BEGIN;"
       "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);"
       "CREATE TABLE landmarks(landmark_id INTEGER PRIMARY KEY, camera TEXT NOT NULL,"
@@ -233,7 +197,7 @@ void LandmarkStore::createSchema(const StoreOptions& options) {
       " map_x REAL, map_y REAL, map_theta REAL, fingerprint INTEGER NOT NULL,"
       " UNIQUE(camera, proposal_id, fingerprint));");
   {
-    Statement s(db_, "INSERT INTO meta VALUES (?, ?)", file_);
+    Statement s(*db_, "INSERT INTO meta (key, value) VALUES (:key, :value)");
     const std::pair<std::string, std::string> rows[] = {
         {"format", kFormat},
         {"schema", std::to_string(kSchemaVersion)},
@@ -242,18 +206,18 @@ void LandmarkStore::createSchema(const StoreOptions& options) {
         {"next_id", "1"},
         {"created_utime", std::to_string(options.now)}};
     for (const auto& [k, v] : rows) {
-      s.bind(1, k);
-      s.bind(2, v);
+      s.bind(":key", k);
+      s.bind(":value", v);
       s.run();
     }
   }
-  exec("COMMIT;");
+  db_->exec("COMMIT;");
 }
 
 void LandmarkStore::readMeta() {
   std::map<std::string, std::string> meta;
   try {
-    Statement s(db_, "SELECT key, value FROM meta", file_);
+    Statement s(*db_, "SELECT key, value FROM meta");
     while (s.step()) meta[s.text(0)] = s.text(1);
   } catch (const MapFileError& e) {
     throw MapFileError(file_ + ": a landmark map without its meta table (" + e.what() + ")");
@@ -270,24 +234,30 @@ void LandmarkStore::readMeta() {
     throw MapFileError(file_ + ": meta table incomplete or not numeric");
   }
   // next_id never falls below what the table holds (belt and braces).
-  Statement s(db_, "SELECT COALESCE(MAX(landmark_id), 0) FROM landmarks", file_);
+  Statement s(*db_, "SELECT COALESCE(MAX(landmark_id), 0) FROM landmarks");
   if (s.step()) next_id_ = std::max(next_id_, s.int64(0) + 1);
 }
 
 void LandmarkStore::writeMetaValue(const char* key, const std::string& value) {
-  Statement s(db_, "UPDATE meta SET value = ? WHERE key = ?", file_);
-  s.bind(1, value);
-  s.bind(2, std::string(key));
+  Statement s(*db_, "UPDATE meta SET value = :value WHERE key = :key");
+  s.bind(":value", value);
+  s.bind(":key", std::string(key));
   s.run();
 }
 
-void LandmarkStore::begin() {
+void LandmarkStore::writeTransaction(int64_t revision, const std::function<void()>& body) {
   if (read_only_) throw MapFileError(file_ + ": opened read-only");
-  exec("BEGIN IMMEDIATE");
-}
-
-void LandmarkStore::commit(Utime started) {
-  exec("COMMIT");
+  const Utime started = monotonicUtime();
+  db_->exec("BEGIN IMMEDIATE");
+  try {
+    body();
+    writeMetaValue("revision", std::to_string(revision));
+    db_->exec("COMMIT");
+  } catch (...) {
+    db_->tryExec("ROLLBACK");
+    throw;
+  }
+  revision_ = revision;
   commit_ms_sum_ += 1e-3 * static_cast<double>(monotonicUtime() - started);
   ++commit_count_;
 }
@@ -304,17 +274,16 @@ std::vector<LandmarkInfo> LandmarkStore::loadAllInfo() {
   std::vector<LandmarkInfo> out;
   const std::string sql =
       std::string("SELECT ") + kInfoColumns + " FROM landmarks ORDER BY landmark_id";
-  Statement s(db_, sql.c_str(), file_);
+  Statement s(*db_, sql.c_str());
   while (s.step()) out.push_back(readInfo(s));
   return out;
 }
 
 std::optional<LandmarkStructure> LandmarkStore::loadStructure(int64_t id) {
-  Statement s(db_,
+  Statement s(*db_,
               "SELECT num_points, descriptor_size, points, keypoints, scales, orientations,"
-              " descriptors FROM landmarks WHERE landmark_id = ?",
-              file_);
-  s.bind(1, id);
+              " descriptors FROM landmarks WHERE landmark_id = :id");
+  s.bind(":id", id);
   if (!s.step()) return std::nullopt;
   LandmarkStructure st;
   st.num_points = static_cast<int32_t>(s.int64(0));
@@ -332,132 +301,103 @@ std::optional<LandmarkStructure> LandmarkStore::loadStructure(int64_t id) {
 
 std::optional<int64_t> LandmarkStore::findProposal(const std::string& camera, int64_t proposal_id,
                                                    uint64_t fingerprint) {
-  Statement s(db_,
-              "SELECT landmark_id FROM landmarks WHERE camera = ? AND proposal_id = ? AND"
-              " fingerprint = ?",
-              file_);
-  s.bind(1, camera);
-  s.bind(2, proposal_id);
-  s.bind(3, static_cast<int64_t>(fingerprint));
+  Statement s(*db_,
+              "SELECT landmark_id FROM landmarks WHERE camera = :camera AND"
+              " proposal_id = :proposal_id AND fingerprint = :fingerprint");
+  s.bind(":camera", camera);
+  s.bind(":proposal_id", proposal_id);
+  s.bind(":fingerprint", static_cast<int64_t>(fingerprint));
   if (!s.step()) return std::nullopt;
   return s.int64(0);
 }
 
 int64_t LandmarkStore::insert(LandmarkInfo info, const LandmarkStructure& st, int64_t revision) {
-  const Utime t0 = monotonicUtime();
   if (info.id <= 0) info.id = next_id_;
-  begin();
-  try {
-    Statement s(db_,
+  const int64_t next_id = std::max(next_id_, info.id + 1);
+  writeTransaction(revision, [&] {
+    Statement s(*db_,
                 "INSERT INTO landmarks (landmark_id, camera, proposal_id, version, revision,"
                 " created_utime, odom_x, odom_y, odom_theta, num_points, descriptor_size, points,"
                 " keypoints, scales, orientations, descriptors, num_recognitions, num_accepted,"
                 " num_rejected, last_seen_utime, pose_source, map_x, map_y, map_theta, fingerprint)"
-                " VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
-                file_);
-    s.bind(1, info.id);
-    s.bind(2, info.camera);
-    s.bind(3, info.proposal_id);
-    s.bind(4, static_cast<int64_t>(info.version));
-    s.bind(5, revision);
-    s.bind(6, info.created_utime);
-    s.bind(7, info.created_odom.x);
-    s.bind(8, info.created_odom.y);
-    s.bind(9, info.created_odom.theta);
-    s.bind(10, static_cast<int64_t>(st.num_points));
-    s.bind(11, static_cast<int64_t>(st.descriptor_size));
-    s.bindBlob(12, st.points);
-    s.bindBlob(13, st.keypoints);
-    s.bindBlob(14, st.scales);
-    s.bindBlob(15, st.orientations);
-    s.bindBlob(16, st.descriptors);
-    s.bind(17, static_cast<int64_t>(info.stats.num_recognitions));
-    s.bind(18, static_cast<int64_t>(info.stats.num_accepted));
-    s.bind(19, static_cast<int64_t>(info.stats.num_rejected));
-    s.bind(20, info.stats.last_seen_utime);
-    s.bind(21, static_cast<int64_t>(info.pose_source));
-    s.bind(22, info.map_pose.x);
-    s.bind(23, info.map_pose.y);
-    s.bind(24, info.map_pose.theta);
-    s.bind(25, static_cast<int64_t>(info.fingerprint));
+                " VALUES (:landmark_id, :camera, :proposal_id, :version, :revision,"
+                " :created_utime, :odom_x, :odom_y, :odom_theta, :num_points, :descriptor_size,"
+                " :points, :keypoints, :scales, :orientations, :descriptors, :num_recognitions,"
+                " :num_accepted, :num_rejected, :last_seen_utime, :pose_source, :map_x, :map_y,"
+                " :map_theta, :fingerprint)");
+    s.bind(":landmark_id", info.id);
+    s.bind(":camera", info.camera);
+    s.bind(":proposal_id", info.proposal_id);
+    s.bind(":version", info.version);
+    s.bind(":revision", revision);
+    s.bind(":created_utime", info.created_utime);
+    s.bind(":odom_x", info.created_odom.x);
+    s.bind(":odom_y", info.created_odom.y);
+    s.bind(":odom_theta", info.created_odom.theta);
+    s.bind(":num_points", st.num_points);
+    s.bind(":descriptor_size", st.descriptor_size);
+    s.bindBlob(":points", st.points);
+    s.bindBlob(":keypoints", st.keypoints);
+    s.bindBlob(":scales", st.scales);
+    s.bindBlob(":orientations", st.orientations);
+    s.bindBlob(":descriptors", st.descriptors);
+    s.bind(":num_recognitions", info.stats.num_recognitions);
+    s.bind(":num_accepted", info.stats.num_accepted);
+    s.bind(":num_rejected", info.stats.num_rejected);
+    s.bind(":last_seen_utime", info.stats.last_seen_utime);
+    s.bind(":pose_source", static_cast<int64_t>(info.pose_source));
+    s.bind(":map_x", info.map_pose.x);
+    s.bind(":map_y", info.map_pose.y);
+    s.bind(":map_theta", info.map_pose.theta);
+    s.bind(":fingerprint", static_cast<int64_t>(info.fingerprint));
     s.run();
-    writeMetaValue("revision", std::to_string(revision));
-    writeMetaValue("next_id", std::to_string(std::max(next_id_, info.id + 1)));
-    commit(t0);
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  revision_ = revision;
-  next_id_ = std::max(next_id_, info.id + 1);
+    writeMetaValue("next_id", std::to_string(next_id));
+  });
+  next_id_ = next_id;
   return info.id;
 }
 
 void LandmarkStore::updateInfos(const std::vector<LandmarkInfo>& infos, int64_t revision) {
-  const Utime t0 = monotonicUtime();
-  begin();
-  try {
-    Statement s(db_,
-                "UPDATE landmarks SET version = ?, revision = ?, num_recognitions = ?,"
-                " num_accepted = ?, num_rejected = ?, last_seen_utime = ?, pose_source = ?,"
-                " map_x = ?, map_y = ?, map_theta = ? WHERE landmark_id = ?",
-                file_);
+  writeTransaction(revision, [&] {
+    Statement s(*db_,
+                "UPDATE landmarks SET version = :version, revision = :revision,"
+                " num_recognitions = :num_recognitions, num_accepted = :num_accepted,"
+                " num_rejected = :num_rejected, last_seen_utime = :last_seen_utime,"
+                " pose_source = :pose_source, map_x = :map_x, map_y = :map_y,"
+                " map_theta = :map_theta WHERE landmark_id = :landmark_id");
     for (const auto& i : infos) {
-      s.bind(1, static_cast<int64_t>(i.version));
-      s.bind(2, i.revision);
-      s.bind(3, static_cast<int64_t>(i.stats.num_recognitions));
-      s.bind(4, static_cast<int64_t>(i.stats.num_accepted));
-      s.bind(5, static_cast<int64_t>(i.stats.num_rejected));
-      s.bind(6, i.stats.last_seen_utime);
-      s.bind(7, static_cast<int64_t>(i.pose_source));
-      s.bind(8, i.map_pose.x);
-      s.bind(9, i.map_pose.y);
-      s.bind(10, i.map_pose.theta);
-      s.bind(11, i.id);
+      s.bind(":version", i.version);
+      s.bind(":revision", i.revision);
+      s.bind(":num_recognitions", i.stats.num_recognitions);
+      s.bind(":num_accepted", i.stats.num_accepted);
+      s.bind(":num_rejected", i.stats.num_rejected);
+      s.bind(":last_seen_utime", i.stats.last_seen_utime);
+      s.bind(":pose_source", static_cast<int64_t>(i.pose_source));
+      s.bind(":map_x", i.map_pose.x);
+      s.bind(":map_y", i.map_pose.y);
+      s.bind(":map_theta", i.map_pose.theta);
+      s.bind(":landmark_id", i.id);
       s.run();
     }
-    writeMetaValue("revision", std::to_string(revision));
-    commit(t0);
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  revision_ = revision;
+  });
 }
 
 void LandmarkStore::remove(const std::vector<int64_t>& ids, int64_t revision) {
-  const Utime t0 = monotonicUtime();
-  begin();
-  try {
-    Statement s(db_, "DELETE FROM landmarks WHERE landmark_id = ?", file_);
+  writeTransaction(revision, [&] {
+    Statement s(*db_, "DELETE FROM landmarks WHERE landmark_id = :landmark_id");
     for (int64_t id : ids) {
-      s.bind(1, id);
+      s.bind(":landmark_id", id);
       s.run();
     }
-    writeMetaValue("revision", std::to_string(revision));
-    commit(t0);
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  revision_ = revision;
+  });
 }
 
 void LandmarkStore::setRevision(int64_t revision) {
-  const Utime t0 = monotonicUtime();
-  begin();
-  try {
-    writeMetaValue("revision", std::to_string(revision));
-    commit(t0);
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  revision_ = revision;
+  writeTransaction(revision, [] {});
 }
 
 std::string LandmarkStore::integrityCheck() {
-  Statement s(db_, "PRAGMA integrity_check", file_);
+  Statement s(*db_, "PRAGMA integrity_check");
   std::string out;
   while (s.step()) out += (out.empty() ? "" : "\n") + s.text(0);
   return out;

@@ -22,6 +22,8 @@
 // ":memory:" (or an empty path) is a private in-memory database: nothing persists.
 
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -29,7 +31,10 @@
 
 #include "landmark_db/landmark_record.hpp"
 
-struct sqlite3;
+namespace vslam::sqlite {
+template <class Error>
+class Database;
+}  // namespace vslam::sqlite
 
 namespace vslam::landmark_db {
 
@@ -93,19 +98,18 @@ class LandmarkStore {
   double takeMeanCommitMs(int64_t* count = nullptr);
 
  private:
-  void exec(const std::string& sql);
-  [[noreturn]] void fail(const std::string& what);
   void checkIdentity();
   void createSchema(const StoreOptions& options);
   void readMeta();
   void writeMetaValue(const char* key, const std::string& value);
-  void begin();
-  void commit(Utime started);
+  // Runs body and sets the map's revision in one transaction, rolled back
+  // if anything throws; counts its time for takeMeanCommitMs.
+  void writeTransaction(int64_t revision, const std::function<void()>& body);
 
   std::string file_;
   bool in_memory_ = false;
   bool read_only_ = false;
-  sqlite3* db_ = nullptr;
+  std::unique_ptr<sqlite::Database<MapFileError>> db_;
   std::string database_id_;
   int64_t revision_ = 0;
   int64_t next_id_ = 1;
