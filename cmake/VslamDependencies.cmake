@@ -9,6 +9,7 @@ find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs features2d cali
 find_package(Ceres REQUIRED)
 find_package(TBB REQUIRED)
 find_package(SQLite3 REQUIRED)
+find_package(JPEG REQUIRED)  # JPEG headers read before decoding (libjpeg-turbo, as OpenCV)
 find_package(CLI11 CONFIG REQUIRED)  # command lines (header-only)
 find_package(nlohmann_json 3 REQUIRED)  # JSON in and out (header-only)
 

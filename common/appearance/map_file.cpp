@@ -5,6 +5,7 @@
 #include <map>
 #include <sstream>
 
+#include "util/file_mode.hpp"
 #include "util/sqlite.hpp"
 
 namespace vslam::appearance {
@@ -38,6 +39,9 @@ void saveMap(const std::filesystem::path& file, const SavedMap& map) {
   std::filesystem::remove(tmp, ec);
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
   {
+    if (auto why = util::createOwnerOnly(tmp)) {
+      throw MapFileError(file.string() + ": cannot save: " + *why);
+    }
     Db db(tmp, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
     db.exec(
         "PRAGMA journal_mode=OFF; BEGIN;"

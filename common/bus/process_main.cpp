@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "bus/runner.hpp"
+#include "util/command_line.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
 
@@ -35,13 +36,7 @@ std::optional<int> parseArgs(int argc, char** argv, const std::string& program, 
   app.add_flag("--print-config", args->print_config,
                "print the validated configuration (each value with its unit, default and "
                "meaning) and exit");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help (0) or the error and a hint
-    return code == 0 ? kExitOk : kExitUsage;
-  }
-  return std::nullopt;
+  return parseCommandLine(app, program, argumentsOf(argc, argv), std::cout, std::cerr);
 }
 
 // One --print-config line: the value, and what the declaration says of it.

@@ -10,12 +10,9 @@
 #include <string>
 
 #include "bus/stage_registry.hpp"
+#include "util/command_line.hpp"
 
 namespace vslam::bus {
-
-inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;
-inline constexpr int kExitUsage = 2;
 
 int runStageProcess(int argc, char** argv, const std::string& role, const StageRegistry& registry);
 

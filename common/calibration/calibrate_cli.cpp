@@ -12,12 +12,13 @@
 
 #include "calibration/calibration.hpp"
 #include "calibration/frame_source.hpp"
+#include "util/command_line.hpp"
 #include "util/process.hpp"
 
 namespace vslam::calibration {
 namespace {
 
-constexpr int kExitOk = 0, kExitDataError = 1, kExitUsage = 2;
+constexpr int kExitDataError = 1;
 
 struct CalibrateOptions {
   BoardSpec board;
@@ -199,17 +200,9 @@ int runCalibrateCli(const std::vector<std::string>& args, std::ostream& out, std
   addSourceOptions(app, o);
   addSelectionOptions(app, o);
   app.add_option("--out", o.out, "the calibration file (replaced)");
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
-    checkOptions(o, app);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      out << app.help();
-      return kExitOk;
-    }
-    err << "vslam-calibrate: " << e.what() << " (see --help)\n";
-    return kExitUsage;
+  if (const auto code =
+          parseCommandLine(app, "vslam-calibrate", args, out, err, [&] { checkOptions(o, app); })) {
+    return *code;
   }
   try {
     FrameSource source = openSource(o);

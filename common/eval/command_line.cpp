@@ -47,23 +47,6 @@ std::string sizeText(cv::Size size) {
 
 }  // namespace
 
-std::optional<int> parseCommandLine(CLI::App& app, const std::string& tool,
-                                    const std::vector<std::string>& args, std::ostream& out,
-                                    std::ostream& err) {
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {  // --help
-      out << app.help();
-      return 0;
-    }
-    err << tool << ": " << e.what() << " (see --help)\n";
-    return 2;
-  }
-  return std::nullopt;
-}
-
 CLI::Validator finiteNumber() {
   return CLI::Validator(
       [](std::string& text) -> std::string {

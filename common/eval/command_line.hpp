@@ -1,26 +1,17 @@
 #pragma once
 // What the command lines of vslam-eval and vslam-import share on top of
 // CLI11: option values that must parse completely (finite numbers, pixel
-// sizes, named choices, number lists), and the parse itself with the tools'
-// way of reporting a bad command line ("TOOL: what (see --help)", exit 2).
+// sizes, named choices, number lists). The parse itself is
+// util/command_line.hpp's, as for every binary.
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
-#include <iosfwd>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace vslam::eval {
-
-// Parses args (argv without the program name). Returns the exit code when
-// the tool should stop here: 0 after printing the help to out (--help), 2
-// after naming the error on err ("TOOL: what (see --help)"); nothing when
-// the tool should go on.
-std::optional<int> parseCommandLine(CLI::App& app, const std::string& tool,
-                                    const std::vector<std::string>& args, std::ostream& out,
-                                    std::ostream& err);
 
 // A finite number (not nan or inf), or one that is also > 0.
 CLI::Validator finiteNumber();

@@ -7,11 +7,11 @@
 #include <stdexcept>
 #include <string>
 
+#include "util/command_line.hpp"
+
 namespace vslam::eval {
 
-inline constexpr int kExitOk = 0;
 inline constexpr int kExitDataError = 1;
-inline constexpr int kExitUsage = 2;
 
 class UsageError : public std::runtime_error {
  public:

@@ -16,6 +16,7 @@
 #include "eval/plot.hpp"
 #include "eval/report.hpp"
 #include "eval/tum_file.hpp"
+#include "util/command_line.hpp"
 #include "util/log.hpp"
 
 namespace vslam::eval {

@@ -10,6 +10,7 @@
 #include "eval/command_line.hpp"
 #include "eval/errors.hpp"
 #include "eval/tum_import.hpp"
+#include "util/command_line.hpp"
 
 namespace vslam::eval {
 namespace {

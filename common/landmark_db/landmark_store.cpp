@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "util/file_mode.hpp"
 #include "util/sqlite.hpp"
 
 namespace vslam::landmark_db {
@@ -77,6 +78,9 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
     if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
+    // Owner-only before SQLite opens it: its journal takes the same mode.
+    if (auto why = util::createOwnerOnly(tmp))
+      throw MapFileError(file_ + ": cannot create: " + *why);
     db_ = std::make_unique<Database>(tmp, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE,
                                      "cannot create");
     createSchema(options);

@@ -12,13 +12,12 @@
 
 #include "config/stack_config.hpp"
 #include "eval/plot.hpp"
+#include "util/command_line.hpp"
 
 namespace vslam::landmark_db {
 namespace {
 
-constexpr int kExitOk = 0;
 constexpr int kExitDamaged = 1;
-constexpr int kExitUsage = 2;
 
 struct Options {
   std::string command, file, out, config, instance = "landmark_db";
@@ -213,18 +212,10 @@ std::optional<int> parseMapToolArgs(const std::vector<std::string>& args, Option
       ->capture_default_str();
   app.add_flag("--dry-run", o.dry_run, "prune: list what would be removed, remove nothing");
   app.add_option("--now-utime", o.now, "ages for prune (default: the newest time in the file)");
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
+  const auto code = parseCommandLine(app, "vslam-map", args, std::cout, std::cerr, [&] {
     if (o.command == "plot" && o.out.empty()) throw CLI::ValidationError("plot needs --out DIR");
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return kExitOk;
-    }
-    std::cerr << "vslam-map: " << e.what() << " (see --help)\n";
-    return kExitUsage;
-  }
+  });
+  if (code) return *code;
   o.config = config::resolveStackConfig(o.config);
   return std::nullopt;
 }

@@ -13,8 +13,10 @@
 #include "bus/health_barrier.hpp"
 #include "bus/messages.hpp"
 #include "bus/process_main.hpp"
+#include "config/param_table.hpp"
 #include "config/stack_config.hpp"
 #include "sim/simulator.hpp"
+#include "util/command_line.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
 
@@ -93,7 +95,7 @@ CLI::Option* addNumberOption(CLI::App& app, const std::string& name, double* val
 
 // Parses the command line into `options`; an exit code when the program is
 // done (help printed, or a usage error).
-std::optional<int> parseCommandLine(const std::vector<std::string>& args, SimOptions* options) {
+std::optional<int> parseSimCommandLine(const std::vector<std::string>& args, SimOptions* options) {
   CLI::App app{
       "vslam-sim: the simulated robot. Publishes live on the bus, paced to real time,\n"
       "or writes an LCM log as fast as it can (--out).",
@@ -130,12 +132,8 @@ std::optional<int> parseCommandLine(const std::vector<std::string>& args, SimOpt
       ->type_name("A,B,...");
   addNumberOption(app, "--wait-timeout", &options->wait_timeout,
                   "live: give up waiting after X seconds (default 60; exit 1)");
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help (0) or the error and a hint
-    return code == 0 ? bus::kExitOk : bus::kExitUsage;
+  if (const auto code = vslam::parseCommandLine(app, "vslam-sim", args, std::cout, std::cerr)) {
+    return code;
   }
   // "--wait-for a,,b" names two instances.
   auto& names = options->wait_for;
@@ -144,6 +142,26 @@ std::optional<int> parseCommandLine(const std::vector<std::string>& args, SimOpt
   return std::nullopt;
 }
 
+// The keys of a `role: sim` block; the command line overrides each.
+struct SimBlock {
+  std::string scenario;  // none: --scenario is needed
+  double speed = 1.0;
+  double duration = 0;
+
+  static const config::ParamTable<SimBlock>& table() {
+    static const config::ParamTable<SimBlock> declared = [] {
+      config::ParamTable<SimBlock> t;
+      t.add("scenario", &SimBlock::scenario, "config/scenarios/<name>.yaml, or a path")
+          .add("speed", &SimBlock::speed, config::InRange{0.01, 1000}, "x",
+               "live: multiple of real time")
+          .add("duration", &SimBlock::duration, config::InRange{0, 1e7}, "s",
+               "simulated seconds before it stops; 0: the scenario's own length");
+      return t;
+    }();
+    return declared;
+  }
+};
+
 // The instance's block in the stack config, if it has one (the simulator
 // needs none: command-line options suffice), fills what the command line left.
 void applyInstanceBlock(const config::StackConfig& stack, SimOptions& options) {
@@ -151,13 +169,12 @@ void applyInstanceBlock(const config::StackConfig& stack, SimOptions& options) {
   if (std::find(instances.begin(), instances.end(), options.instance) == instances.end()) return;
   const config::ConfigNode block = stack.process(options.instance);
   block.getEnum("role", {"sim"});
-  const std::string configured = block.getString("scenario", "");
-  const double configured_speed = block.getDouble("speed", 1.0, config::InRange{0.01, 1000});
-  const double configured_duration = block.getDouble("duration", 0.0, config::InRange{0, 1e7});
+  SimBlock configured;
+  SimBlock::table().load(block, configured);
   block.requireAllKeysUsed();
-  if (options.scenario.empty()) options.scenario = configured;
-  if (options.speed <= 0) options.speed = configured_speed;
-  if (options.duration <= 0) options.duration = configured_duration;
+  if (options.scenario.empty()) options.scenario = configured.scenario;
+  if (options.speed <= 0) options.speed = configured.speed;
+  if (options.duration <= 0) options.duration = configured.duration;
 }
 
 // Opens the bus for a live run; false (logged) if LCM cannot be opened.
@@ -180,12 +197,12 @@ std::optional<int> waitForProcesses(const SimOptions& options, SimRun& run) {
   log::info("waiting up to ", options.wait_timeout, " s for health from ", options.wait_for.size(),
             " process instances on ", health_channel);
   if (barrier.wait(options.wait_timeout, stopRequested)) return std::nullopt;
-  if (stopRequested()) return bus::kExitOk;
+  if (stopRequested()) return kExitOk;
   std::string missing;
   for (const auto& name : barrier.pending()) missing += (missing.empty() ? "" : ", ") + name;
   log::error("no health from ", missing, " within ", options.wait_timeout,
              " s (--wait-for): are they running on this bus?");
-  return bus::kExitFailure;
+  return kExitFailure;
 }
 
 // Loads the configuration and the scenario, opens the bus (live), waits for
@@ -198,11 +215,11 @@ std::optional<int> setUp(SimOptions& options, SimRun& run) {
     if (options.scenario.empty()) {
       std::cerr << "vslam-sim: no scenario: give --scenario NAME or set processes."
                 << options.instance << ".scenario in " << options.config_file << "\n";
-      return bus::kExitUsage;
+      return kExitUsage;
     }
     run.scenario = Scenario::loadByName(options.scenario, run.stack->root.baseDir() / "scenarios");
     if (options.duration > 0) run.scenario.duration_s = options.duration;
-    if (options.out.empty() && !openLiveBus(options, run)) return bus::kExitFailure;
+    if (options.out.empty() && !openLiveBus(options, run)) return kExitFailure;
     if (run.live_lcm && !options.wait_for.empty()) {
       if (const auto code = waitForProcesses(options, run)) return code;
     }
@@ -213,10 +230,10 @@ std::optional<int> setUp(SimOptions& options, SimRun& run) {
     run.simulator = std::make_unique<Simulator>(run.scenario, run.stack->robot, start);
   } catch (const config::ConfigError& e) {
     log::error("configuration error: ", e.what());
-    return bus::kExitUsage;
+    return kExitUsage;
   } catch (const std::exception& e) {
     log::error(e.what());
-    return bus::kExitUsage;
+    return kExitUsage;
   }
   return std::nullopt;
 }
@@ -289,7 +306,7 @@ int runSimCli(const std::vector<std::string>& args) {
   log::setProcessName("sim");
   tuneAllocatorForSteadyState();
   SimOptions options;
-  if (const auto code = parseCommandLine(args, &options)) return *code;
+  if (const auto code = parseSimCommandLine(args, &options)) return *code;
 
   installStopSignalHandlers();
   SimRun run;
@@ -307,10 +324,10 @@ int runSimCli(const std::vector<std::string>& args) {
     }
   } catch (const std::exception& e) {
     log::error(e.what());
-    return bus::kExitFailure;
+    return kExitFailure;
   }
   logSummary(*run.simulator, options.out, wall_start);
-  return bus::kExitOk;
+  return kExitOk;
 }
 
 }  // namespace vslam::sim

@@ -9,14 +9,13 @@
 #include "config/config_node.hpp"
 #include "sim/home_generator.hpp"
 #include "sim/scenario.hpp"
+#include "util/command_line.hpp"
 #include "world/world.hpp"
 
 namespace vslam::sim {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr int kExitOk = 0, kExitFailure = 1, kExitUsage = 2;
 
 bool writeFile(const fs::path& file, const std::string& text) {
   std::ofstream out(file, std::ios::binary);
@@ -55,11 +54,8 @@ int runWorldgenCli(const std::vector<std::string>& args) {
                  "about 60% single, 20% sequence, 20% kidnap")
       ->check(CLI::IsMember({"single", "sequence", "kidnap", "auto"}))
       ->capture_default_str();
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? kExitOk : kExitUsage;
+  if (const auto code = parseCommandLine(app, "vslam-worldgen", args, std::cout, std::cerr)) {
+    return *code;
   }
   HomeKind kind = autoHomeKind(seed);
   if (kind_name != "auto") parseHomeKind(kind_name, &kind);

@@ -77,7 +77,7 @@ int runReplayCli(const std::vector<std::string>& args) {
     app.parse(reversed);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);  // prints help (0) or the error and a hint
-    return code == 0 ? bus::kExitOk : bus::kExitUsage;
+    return code == 0 ? kExitOk : kExitUsage;
   }
   options.input = input;
   options.output = output;
@@ -91,7 +91,7 @@ int runReplayCli(const std::vector<std::string>& args) {
     const std::vector<std::string> instances = chooseInstances(stack, stages);
     if (instances.empty()) {
       log::error("no stage to run: no instance in ", config_file, " has a stage role");
-      return bus::kExitUsage;
+      return kExitUsage;
     }
     for (const auto& inst : instances) {
       replay.addStage(inst, builtinStages().create(stack, inst));
@@ -103,13 +103,13 @@ int runReplayCli(const std::vector<std::string>& args) {
               "; wrote ", s.events_written, " events to ", options.output.string(), "; ",
               s.log_seconds, " s of log in ", s.wall_seconds, " s (",
               s.wall_seconds > 0 ? s.log_seconds / s.wall_seconds : 0.0, "x real time)");
-    return s.input_truncated || s.events_missing > 0 ? bus::kExitFailure : bus::kExitOk;
+    return s.input_truncated || s.events_missing > 0 ? kExitFailure : kExitOk;
   } catch (const config::ConfigError& e) {
     log::error("configuration error: ", e.what());
-    return bus::kExitUsage;
+    return kExitUsage;
   } catch (const std::exception& e) {
     log::error(e.what());
-    return bus::kExitFailure;
+    return kExitFailure;
   }
 }
 

@@ -1,5 +1,6 @@
 // Camera images to gray for the stages (common/stages/image_gray): what is
-// refused and why, and that each encoding gives the same gray pixels.
+// refused and why (a JPEG from its header, before anything decodes it), and
+// that each encoding gives the same gray pixels.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -85,20 +86,160 @@ TEST(ImageGray, EveryEncodingGivesTheSameGrayPixels) {
   ASSERT_FALSE(stages::imageToGray(bgr8, &from_bgr));
   EXPECT_EQ(cv::norm(from_bgr, expected, cv::NORM_INF), 0.0);
 
-  // Lossless PNG bytes are not JPEG, but imdecode reads them: the decode path
-  // and its size check are what is tested here.
+  // A JPEG of the right size decodes to what OpenCV's imdecode gives (lossy:
+  // close to the ramp, not equal to it).
   vslam::image_t jpeg = gray8;
   jpeg.encoding = vslam::image_t::ENCODING_JPEG;
-  cv::imencode(".png", expected, jpeg.data);
+  jpeg.row_stride = 0;
+  ASSERT_TRUE(cv::imencode(".jpg", expected, jpeg.data, {cv::IMWRITE_JPEG_QUALITY, 100}));
+  ASSERT_FALSE(stages::checkImage(camera(6, 4), jpeg));
   cv::Mat decoded;
   ASSERT_FALSE(stages::imageToGray(jpeg, &decoded));
-  EXPECT_EQ(cv::norm(decoded, expected, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(decoded, cv::imdecode(jpeg.data, cv::IMREAD_GRAYSCALE), cv::NORM_INF), 0.0);
+  EXPECT_LE(cv::norm(decoded, expected, cv::NORM_INF), 2.0);
+}
 
-  jpeg.width = 7;  // announced size differs from the pixels
-  const auto wrong = stages::imageToGray(jpeg, &decoded);
-  ASSERT_TRUE(wrong);
-  EXPECT_NE(wrong->find("does not decode to the announced size"), std::string::npos);
-  jpeg.data = {1, 2, 3};  // not an image
-  jpeg.width = 6;
-  EXPECT_TRUE(stages::imageToGray(jpeg, &decoded));
+namespace {
+
+// A JPEG of a width x height noise image as an image_t of that size.
+vslam::image_t jpegMessage(int width, int height, int type = CV_8UC1) {
+  cv::Mat frame(height, width, type);
+  cv::randu(frame, 0, 255);
+  vslam::image_t m{};
+  m.width = width;
+  m.height = height;
+  m.encoding = vslam::image_t::ENCODING_JPEG;
+  cv::imencode(".jpg", frame, m.data);
+  m.data_size = static_cast<int32_t>(m.data.size());
+  return m;
+}
+
+// The offset of the first segment with marker `marker` (0xFF `marker`), or 0:
+// a walk over the segments' lengths from the start-of-image marker.
+size_t segmentOffset(const std::vector<uint8_t>& jpeg, uint8_t marker) {
+  size_t at = 2;
+  while (at + 4 <= jpeg.size() && jpeg[at] == 0xFF) {
+    if (jpeg[at + 1] == marker) return at;
+    at += 2 + (size_t{jpeg[at + 2]} << 8 | jpeg[at + 3]);
+  }
+  return 0;
+}
+
+}  // namespace
+
+TEST(ImageGray, AJpegOfAnotherSizeIsRefusedNamingBoth) {
+  const vslam::image_t m = jpegMessage(32, 24);
+  stages::JpegHeader header;
+  ASSERT_FALSE(stages::readJpegHeader(m.data.data(), m.data.size(), &header));
+  EXPECT_EQ(header.width, 32);
+  EXPECT_EQ(header.height, 24);
+  EXPECT_EQ(header.components, 1);
+  const vslam::image_t color = jpegMessage(8, 8, CV_8UC3);
+  ASSERT_FALSE(stages::readJpegHeader(color.data.data(), color.data.size(), &header));
+  EXPECT_EQ(header.components, 3);
+
+  vslam::image_t other = jpegMessage(40, 30);
+  other.width = 32;  // the message announces the camera's 32x24
+  other.height = 24;
+  const auto checked = stages::checkImage(camera(32, 24), other);
+  ASSERT_TRUE(checked);
+  EXPECT_NE(checked->find("JPEG header announces 40x30, but the message announces 32x24"),
+            std::string::npos)
+      << *checked;
+  cv::Mat gray;
+  const auto decoded = stages::imageToGray(other, &gray);
+  ASSERT_TRUE(decoded);
+  EXPECT_EQ(*decoded, *checked);
+  EXPECT_TRUE(gray.empty()) << "refused before decoding";
+}
+
+TEST(ImageGray, AJpegAnnouncingAHugeImageIsRefusedFromItsHeader) {
+  // A real header (tables, SOF, SOS) with its SOF patched to 60000x60000,
+  // a few bytes of scan and the end-of-image marker: 60000x60000 would be
+  // 3.6 GB of gray for OpenCV to allocate; the header is all that is read.
+  const vslam::image_t real = jpegMessage(32, 24);
+  const size_t sof = segmentOffset(real.data, 0xC0);  // baseline SOF0, as OpenCV writes
+  const size_t sos = segmentOffset(real.data, 0xDA);
+  ASSERT_GT(sof, 0u);
+  ASSERT_GT(sos, sof);
+  const size_t scan = sos + 2 + (size_t{real.data[sos + 2]} << 8 | real.data[sos + 3]);
+  vslam::image_t hostile = real;
+  hostile.data.assign(real.data.begin(), real.data.begin() + static_cast<long>(scan) + 8);
+  hostile.data.push_back(0xFF);
+  hostile.data.push_back(0xD9);
+  // SOF: FF C0, length (2), precision (1), height (2), width (2), components.
+  for (size_t at : {sof + 5, sof + 7}) {
+    hostile.data[at] = 60000 >> 8;
+    hostile.data[at + 1] = 60000 & 0xFF;
+  }
+  ASSERT_LT(hostile.data.size(), 1000u);
+
+  stages::JpegHeader header;
+  ASSERT_FALSE(stages::readJpegHeader(hostile.data.data(), hostile.data.size(), &header));
+  EXPECT_EQ(header.width, 60000);
+  EXPECT_EQ(header.height, 60000);
+  const auto checked = stages::checkImage(camera(32, 24), hostile);
+  ASSERT_TRUE(checked);
+  EXPECT_NE(checked->find("JPEG header announces 60000x60000, but the message announces 32x24"),
+            std::string::npos)
+      << *checked;
+  cv::Mat gray;
+  const auto decoded = stages::imageToGray(hostile, &gray);
+  ASSERT_TRUE(decoded);
+  EXPECT_EQ(*decoded, *checked);
+  EXPECT_TRUE(gray.empty());
+}
+
+TEST(ImageGray, AJpegPaddedWithZerosAfterItsEndDecodes) {
+  // UVC cameras pad MJPEG frames with zeros after the end-of-image marker.
+  vslam::image_t padded = jpegMessage(32, 24);
+  padded.data.insert(padded.data.end(), 100, 0x00);
+  EXPECT_FALSE(stages::checkImage(camera(32, 24), padded));
+  cv::Mat gray;
+  EXPECT_FALSE(stages::imageToGray(padded, &gray));
+  EXPECT_EQ(gray.size(), cv::Size(32, 24));
+}
+
+TEST(ImageGray, TruncatedOrForeignJpegBytesAreRefused) {
+  const vslam::image_t real = jpegMessage(32, 24);
+  cv::Mat gray;
+  auto refusal = [&](const std::vector<uint8_t>& bytes) {
+    vslam::image_t m = real;
+    m.data = bytes;
+    const auto checked = stages::checkImage(camera(32, 24), m);
+    const auto decoded = stages::imageToGray(m, &gray);
+    EXPECT_TRUE(gray.empty());
+    EXPECT_EQ(checked, decoded);
+    return checked.value_or("accepted");
+  };
+  auto contains = [](const std::string& text, const std::string& part) {
+    return text.find(part) != std::string::npos;
+  };
+
+  // Cut in the scan: the header is fine, the end-of-image marker missing
+  // (OpenCV would decode it, the missing part gray).
+  const std::vector<uint8_t> cut_in_scan(real.data.begin(), real.data.end() - 40);
+  EXPECT_PRED2(contains, refusal(cut_in_scan), "JPEG truncated (no end-of-image marker");
+
+  // Cut in the header, even with an end-of-image marker added back.
+  const size_t sof = segmentOffset(real.data, 0xC0);
+  ASSERT_GT(sof, 0u);
+  std::vector<uint8_t> cut_in_header(real.data.begin(),
+                                     real.data.begin() + static_cast<long>(sof) + 6);
+  cut_in_header.push_back(0xFF);
+  cut_in_header.push_back(0xD9);
+  EXPECT_PRED2(contains, refusal(cut_in_header), "malformed JPEG header: ");
+
+  // No frame header at all: start and end of image only.
+  EXPECT_PRED2(contains, refusal({0xFF, 0xD8, 0xFF, 0xD9}), "malformed JPEG header: ");
+  // A segment length pointing past the end.
+  std::vector<uint8_t> long_segment = {0xFF, 0xD8, 0xFF, 0xE0, 0xFF, 0xF0, 0x00, 0xFF, 0xD9};
+  EXPECT_PRED2(contains, refusal(long_segment), "malformed JPEG header: ");
+
+  // PNG bytes labelled JPEG: imdecode would read them, unchecked.
+  std::vector<uint8_t> png;
+  cv::imencode(".png", cv::Mat(24, 32, CV_8UC1, cv::Scalar(7)), png);
+  EXPECT_PRED2(contains, refusal(png), "not a JPEG");
+  EXPECT_PRED2(contains, refusal({1, 2, 3}), "not a JPEG");
+  EXPECT_PRED2(contains, refusal({}), "not a JPEG");
 }
