@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "bus/runner.hpp"
+#include "config/stack_config.hpp"
 #include "util/command_line.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
@@ -31,8 +32,9 @@ std::optional<int> parseArgs(int argc, char** argv, const std::string& program, 
   app.add_option("--instance", args->instance,
                  "block under processes: to run (default: the role name)");
   app.add_option("--lcm-url", args->lcm_url,
-                 "LCM provider (default: $LCM_DEFAULT_URL, else the config's lcm.url, else "
-                 "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608)");
+                 std::string("LCM provider (default: $LCM_DEFAULT_URL, else the config's lcm.url, "
+                             "else ") +
+                     config::kDefaultLcmUrl + ")");
   app.add_flag("--print-config", args->print_config,
                "print the validated configuration (each value with its unit, default and "
                "meaning) and exit");

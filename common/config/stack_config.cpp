@@ -18,7 +18,8 @@ StackConfig StackConfig::loadFile(const std::filesystem::path& file) {
   } else {
     root.markUsed("lcm");
   }
-  stack.health_period_s = root.getDouble("health_period_s", 1.0, InRange{0.05, 60});
+  stack.health_period_s =
+      root.getDouble("health_period_s", stack.health_period_s, InRange{0.05, 60});
   // Shared by the front-ends and the back-end, read by them
   // (stages/prefilter_config.hpp).
   root.markUsed("prefilter");

@@ -68,6 +68,12 @@ namespace {
 // degrees and the structs radians.
 
 // motion: mode waypoints: a list of waypoints or a route of the world file.
+// A key written in degrees into a value held in radians, left at its
+// default (the struct's) when absent.
+void readDegrees(const ConfigNode& m, const std::string& key, InRange range, double* radians) {
+  if (m.has(key)) *radians = degToRad(m.getDouble(key, range));
+}
+
 void readWaypoints(const ConfigNode& m, MotionParams& mp) {
   mp.mode = MotionMode::kWaypoints;
   if (m.has("route") == m.has("waypoints")) {
@@ -98,7 +104,7 @@ void readActions(const ConfigNode& m, MotionParams& mp) {
   }
   mp.laps = static_cast<int>(m.getInt("laps", mp.laps, InRange{1, 1000}));
   mp.action_length_m = m.getDouble("action_length_m", mp.action_length_m, InRange{0.01, 100});
-  mp.action_turn_rad = degToRad(m.getDouble("action_turn_deg", 90.0, InRange{1, 180}));
+  readDegrees(m, "action_turn_deg", InRange{1, 180}, &mp.action_turn_rad);
   mp.action_error = m.getDouble("action_error", mp.action_error, InRange{0, 0.5});
   mp.action_pause_s = m.getDouble("action_pause_s", mp.action_pause_s, InRange{0, 60});
 }
@@ -109,7 +115,7 @@ MotionParams readMotion(const ConfigNode& node) {
   const std::string mode = m.getEnum("mode", {"waypoints", "random", "actions", "trajectory"});
   MotionParams mp;
   mp.speed_mps = m.getDouble("speed_mps", mp.speed_mps, InRange{0.01, 2.0});
-  mp.turn_rate_rps = degToRad(m.getDouble("turn_rate_dps", 45.0, InRange{1, 360}));
+  readDegrees(m, "turn_rate_dps", InRange{1, 360}, &mp.turn_rate_rps);
   mp.robot_radius_m = m.getDouble("robot_radius_m", mp.robot_radius_m, InRange{0.05, 1.0});
   if (mode != "trajectory" && m.has("start")) {
     mp.start = readPose(m, "start");

@@ -23,10 +23,10 @@ enum class MotionMode {
 
 struct MotionParams {
   MotionMode mode = MotionMode::kWaypoints;
-  Pose2 start;                 // world frame; theta radians
-  bool has_start = false;      // otherwise the world file's `start`
-  double speed_mps = 0.3;      // forward speed when driving
-  double turn_rate_rps = 0.8;  // rotation speed when turning in place, rad/s
+  Pose2 start;                                 // world frame; theta radians
+  bool has_start = false;                      // otherwise the world file's `start`
+  double speed_mps = 0.3;                      // forward speed when driving
+  double turn_rate_rps = 45.0 * M_PI / 180.0;  // rotation speed when turning in place, rad/s
   // waypoints
   std::vector<Eigen::Vector2d> waypoints;
   std::string route;  // or a named route of the world file
@@ -38,7 +38,7 @@ struct MotionParams {
   // each optionally with a repeat count ("F9 L F6 R ...").
   std::string actions;
   double action_length_m = 1.0;
-  double action_turn_rad = M_PI / 2;
+  double action_turn_rad = 90.0 * M_PI / 180.0;
   double action_error = 0.03;   // relative standard deviation of each executed action
   double action_pause_s = 0.5;  // robot stands still after each action (snapshot time)
   // trajectory
