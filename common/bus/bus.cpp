@@ -2,6 +2,7 @@
 
 #include <exception>
 
+#include "bus/loss_injector.hpp"
 #include "util/log.hpp"
 
 namespace vslam::bus {
@@ -32,7 +33,43 @@ void Bus::add(std::unique_ptr<Subscription> sub, int queue_capacity) {
   subscriptions_.push_back(std::move(sub));
 }
 
-void Bus::Subscription::onRaw(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+void Bus::Subscription::onRaw(const lcm::ReceiveBuffer* rbuf, const std::string& on_channel) {
+  LossStream* stream = bus->loss_ ? lossStream(on_channel) : nullptr;
+  if (!stream) {
+    handle(rbuf);
+    return;
+  }
+  const int64_t recv_utime = rbuf->recv_utime;
+  stream->offer(rbuf->data, rbuf->data_size, [this, recv_utime](const void* data, size_t size) {
+    const lcm::ReceiveBuffer copy{const_cast<void*>(data), static_cast<uint32_t>(size), recv_utime};
+    handle(&copy);
+  });
+}
+
+LossStream* Bus::Subscription::lossStream(const std::string& on_channel) {
+  // A subscription's channel may be a pattern: one stream per channel it matches.
+  auto it = loss_streams.find(on_channel);
+  if (it == loss_streams.end()) {
+    LossStream* stream = bus->loss_->stream(bus->owner_ + "/" + channel, on_channel);
+    it = loss_streams.emplace(on_channel, stream).first;
+  }
+  return it->second;
+}
+
+void Bus::releaseHeld() {
+  for (auto& s : subscriptions_) {
+    Subscription* sub = s.get();
+    for (auto& [channel, stream] : sub->loss_streams) {
+      if (!stream) continue;
+      stream->release([sub](const void* data, size_t size) {
+        const lcm::ReceiveBuffer copy{const_cast<void*>(data), static_cast<uint32_t>(size), 0};
+        sub->handle(&copy);
+      });
+    }
+  }
+}
+
+void Bus::Subscription::handle(const lcm::ReceiveBuffer* rbuf) {
   ++received;
   ++bus->counters_.received;
   Utime msg_utime = 0;

@@ -25,6 +25,9 @@
 
 namespace vslam::bus {
 
+class LossInjector;  // bus/loss_injector.hpp
+class LossStream;
+
 struct BusCounters {
   std::atomic<int64_t> received{0};
   std::atomic<int64_t> published{0};
@@ -69,16 +72,26 @@ class Bus {
   lcm::LCM& lcm() { return lcm_; }
   const std::string& owner() const { return owner_; }
 
+  // Testing over an unreliable bus: the messages of the injector's channels
+  // reach this bus's handlers dropped, duplicated or reordered, each
+  // subscription with its own random stream. Set before messages flow.
+  void setLossInjector(std::shared_ptr<LossInjector> injector) { loss_ = std::move(injector); }
+  // Delivers the messages the injector holds back for this bus's handlers.
+  void releaseHeld();
+
  private:
   struct Subscription {
     virtual ~Subscription() = default;
     void onRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+    void handle(const lcm::ReceiveBuffer* rbuf);
+    LossStream* lossStream(const std::string& on_channel);
     virtual bool decodeAndHandle(const lcm::ReceiveBuffer* rbuf, Utime* msg_utime) = 0;
     Bus* bus = nullptr;
     std::string channel;
     std::string type_name;
     std::atomic<int64_t> received{0};
     lcm::Subscription* lcm_subscription = nullptr;
+    std::map<std::string, LossStream*> loss_streams;  // by channel; nullptr: not lossy
   };
   template <class Msg>
   struct TypedSubscription final : Subscription {
@@ -95,6 +108,7 @@ class Bus {
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::mutex malformed_log_mutex_;
   Utime last_malformed_log_ = 0;
+  std::shared_ptr<LossInjector> loss_;
 };
 
 namespace detail {

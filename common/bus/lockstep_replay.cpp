@@ -25,6 +25,10 @@ LockstepReplay::LockstepReplay(ReplayOptions options) : options_(std::move(optio
   runner_ = std::make_unique<StageRunner>(
       *lcm_, clock_, ExecutionMode::kLockstep,
       RunnerOptions{"vslam-replay", options_.health_channel, options_.health_period_s});
+  if (options_.loss.active()) {
+    loss_ = std::make_shared<LossInjector>(options_.loss);
+    runner_->setLossInjector(loss_);
+  }
 }
 
 LockstepReplay::~LockstepReplay() = default;
@@ -154,9 +158,18 @@ ReplayStats LockstepReplay::run() {
               " bytes that are not a complete event (cut or corrupt); replayed the ",
               stats_.events_read, " complete events before them");
   }
+  if (started && loss_) {
+    // Messages held back to be reordered: nothing comes after them now.
+    runner_->releaseHeldMessages();
+    dispatchUntilQuiet();
+  }
   if (started) {
     runner_->stopAll();
     dispatchUntilQuiet();
+  }
+  if (loss_) {
+    stats_.loss = loss_->total();
+    stats_.loss_per_channel = loss_->perChannel();
   }
   out_.reset();  // closes and flushes the output log
   stats_.log_seconds = toSeconds(last_ts - first_ts);

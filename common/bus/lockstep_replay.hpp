@@ -11,12 +11,14 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <regex>
 #include <string>
 #include <vector>
 
 #include "bus/log_writer.hpp"
+#include "bus/loss_injector.hpp"
 #include "bus/runner.hpp"
 
 namespace vslam::bus {
@@ -32,6 +34,10 @@ struct ReplayOptions {
   // Input events offered to the stages ahead of delivery (Stage::prefetch),
   // so that pure per-message work (SIFT) overlaps with the events before it.
   std::size_t prefetch_events = 48;
+  // Messages lost, repeated or swapped on their way to each stage, inputs and
+  // what stages publish alike; the output log records what was sent. None by
+  // default (then the run is exactly the run without it).
+  LossOptions loss;
 };
 
 struct ReplayStats {
@@ -46,10 +52,13 @@ struct ReplayStats {
   int64_t bytes_skipped = 0;     // damaged bytes skipped to resynchronise
   bool input_truncated = false;  // the log ended inside an event (corrupt or cut tail)
   int64_t input_bytes_unread = 0;
+  LossCounts loss;  // summed over the stages' subscriptions
+  std::map<std::string, LossCounts> loss_per_channel;
 };
 
 class LockstepReplay {
  public:
+  // Throws std::invalid_argument for bad loss options (validateLossOptions).
   explicit LockstepReplay(ReplayOptions options);
   ~LockstepReplay();
 
@@ -67,6 +76,7 @@ class LockstepReplay {
   ManualClock clock_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<StageRunner> runner_;
+  std::shared_ptr<LossInjector> loss_;  // null: no loss
   std::unique_ptr<LogWriter> out_;
   bool next_is_input_ = false;
   bool ran_ = false;

@@ -4,6 +4,7 @@
 
 #include <vslam/health_t.hpp>
 
+#include "bus/loss_injector.hpp"
 #include "bus/messages.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
@@ -42,6 +43,7 @@ void StageRunner::add(std::string instance, std::unique_ptr<Stage> stage) {
   auto e = std::make_unique<Entry>();
   e->instance = std::move(instance);
   e->bus = std::make_unique<Bus>(lcm_, clock_, e->instance);
+  if (loss_) e->bus->setLossInjector(loss_);
   e->stage = std::move(stage);
   e->context = std::make_unique<StageContext>(StageContext{*e->bus, clock_, mode_, e->instance});
   entries_.push_back(std::move(e));
@@ -87,6 +89,12 @@ void StageRunner::stopAll() {
     publishHealth(**it, clock_.now());
   }
   stopped_ = true;
+}
+
+void StageRunner::releaseHeldMessages() {
+  if (!loss_) return;
+  loss_->stopHolding();
+  for (auto& e : entries_) e->bus->releaseHeld();
 }
 
 std::vector<std::string> StageRunner::outputChannels() const {

@@ -24,6 +24,9 @@ class StageRunner {
   StageRunner(lcm::LCM& lcm, const Clock& clock, ExecutionMode mode, RunnerOptions options);
   ~StageRunner();
 
+  // Message loss for every stage's subscriptions (Bus::setLossInjector);
+  // before add().
+  void setLossInjector(std::shared_ptr<LossInjector> injector) { loss_ = std::move(injector); }
   // Takes ownership; the stage's Bus is created here so counters are per stage.
   void add(std::string instance, std::unique_ptr<Stage> stage);
   void startAll();
@@ -34,6 +37,9 @@ class StageRunner {
   void prefetch(const std::string& channel, const void* data, size_t size);
   // Stops stages in reverse order (flushing their state) and publishes a last health.
   void stopAll();
+  // No more messages come: the loss injector holds none back from now on, and
+  // delivers those it held (their handlers may publish: dispatch after).
+  void releaseHeldMessages();
   // Live loop: handle messages until stopRequested(); returns the exit code.
   int runLive();
 
@@ -49,6 +55,7 @@ class StageRunner {
   ExecutionMode mode_;
   RunnerOptions options_;
   std::vector<std::unique_ptr<Entry>> entries_;
+  std::shared_ptr<LossInjector> loss_;
   Utime next_timer_ = 0;
   Utime next_health_ = 0;
   Utime started_monotonic_ = 0;

@@ -39,6 +39,9 @@ config::ParamTable<P> observationKeys() {
       .add("snapshot_timeout_s", &P::snapshot_timeout_s, InRange{0.05, 60}, "s",
            "after an action, wait this long for every camera's next frame, then use those that "
            "came")
+      .add("input_timeout_s", &P::input_timeout_s, InRange{0.05, 3600}, "s",
+           "a camera's images or odometry quieter than this (the stage's clock) are logged once "
+           "and raise health to WARN until they resume")
       .add(
           "histogram_bins", [](auto& p) -> auto& { return p.histogram.bins; }, InRange{2, 1024}, "",
           "k, bins over [-π, π]")
@@ -232,6 +235,15 @@ std::vector<std::string> AppearanceStage::cameraNames() const {
 
 void AppearanceStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
+  for (const auto& camera : params_.cameras) {
+    watchdogs_.push_back(std::make_unique<bus::InputWatchdog>(
+        "images on " + camera.image_channel, "image_age_s_" + camera.name, params_.input_timeout_s,
+        ": snapshots go on without this camera"));
+  }
+  watchdogs_.push_back(std::make_unique<bus::InputWatchdog>(
+      "odometry on " + params_.odometry_channel, "odometry_age_s", params_.input_timeout_s,
+      ": no actions are detected"));
+  for (auto& watchdog : watchdogs_) watchdog->begin(ctx.clock.now());
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
   for (size_t i = 0; i < params_.cameras.size(); ++i) {
@@ -242,6 +254,7 @@ void AppearanceStage::start(bus::StageContext& ctx) {
 }
 
 void AppearanceStage::onOdometry(const vslam::odometry_t& m) {
+  watchdogs_.back()->arrived(ctx_->clock.now(), m.utime);
   const Pose2 pose{m.x, m.y, m.theta};
   if (!pose.isFinite()) {
     ctx_->bus.reportMalformed(params_.odometry_channel,
@@ -287,6 +300,7 @@ bool AppearanceStage::toGray(const config::CameraConfig& camera, const vslam::im
 }
 
 void AppearanceStage::onImage(size_t camera, const vslam::image_t& msg) {
+  watchdogs_[camera]->arrived(ctx_->clock.now(), msg.utime);
   // Every frame is checked (a bad camera shows in health even between
   // snapshots); only the first frame after an action is used.
   if (!validImage(params_.cameras[camera], msg)) return;
@@ -470,6 +484,7 @@ void AppearanceStage::stop() {
 }
 
 void AppearanceStage::collectHealth(bus::HealthReport& report) {
+  for (auto& watchdog : watchdogs_) watchdog->report(ctx_->clock.now(), report);
   report.add("steps", static_cast<double>(steps_), "count");
   report.add("hypotheses", slam_.initialized() ? static_cast<double>(slam_.hypotheses().size()) : 0,
              "count");

@@ -26,6 +26,7 @@
 #include "appearance/action_detector.hpp"
 #include "appearance/gradient_histogram.hpp"
 #include "appearance/path_hypotheses.hpp"
+#include "bus/input_watchdog.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
 
@@ -40,6 +41,7 @@ struct AppearanceParams {
   std::string event_channel;
   appearance::ActionParams action;
   double snapshot_timeout_s = 1.0;  // then step with the cameras that gave an image
+  double input_timeout_s = 2.0;     // quieter images or odometry: logged once, health WARN
   appearance::HistogramParams histogram;
   appearance::SlamParams slam;
   appearance::ActionErrorModel action_error;
@@ -87,6 +89,8 @@ class AppearanceStage final : public bus::Stage {
 
   AppearanceParams params_;
   bus::StageContext* ctx_ = nullptr;
+  // One per camera, then odometry (from start()).
+  std::vector<std::unique_ptr<bus::InputWatchdog>> watchdogs_;
   appearance::AppearanceSlam slam_;
   appearance::ActionDetector detector_;
   std::optional<Pending> pending_;

@@ -386,7 +386,10 @@ std::vector<std::string> BackendStage::outputChannels() const {
 
 void BackendStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
-  started_clock_ = ctx.clock.now();  // 0 in a replay before its first event
+  odometry_watchdog_ = std::make_unique<bus::InputWatchdog>(
+      "odometry on " + params_.odometry_channel, "odometry_age_s", params_.odometry_timeout_s,
+      ": the pose does not move with the robot");
+  odometry_watchdog_->begin(ctx.clock.now());
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
   // Several front-ends publish here; a burst of a frame's measurements from
@@ -422,12 +425,7 @@ void BackendStage::logLimited(LogReason reason, const Args&... args) {
 }
 
 void BackendStage::onOdometry(const vslam::odometry_t& msg) {
-  const Utime now = ctx_->clock.now();
-  const Utime before = last_odometry_clock_.exchange(now);
-  if (odometry_quiet_logged_.exchange(false)) {
-    log::info("odometry back on ", params_.odometry_channel, " after ", toSeconds(now - before),
-              " s without");
-  }
+  odometry_watchdog_->arrived(ctx_->clock.now(), msg.utime);
   using Outcome = OdometryIncrements::Outcome;
   const Outcome outcome = backend_.addOdometry({msg.utime, msg.seq, {msg.x, msg.y, msg.theta}});
   switch (outcome) {
@@ -460,6 +458,7 @@ void BackendStage::onOdometry(const vslam::odometry_t& msg) {
 }
 
 void BackendStage::onMeasurement(const visual_measurement_t& msg) {
+  if (repeated_measurements_.repeated(msg.camera, msg.seq, msg.utime)) return;
   backend::MeasurementInput in;
   in.utime = msg.utime;
   in.landmark_id = msg.landmark_id;
@@ -609,21 +608,6 @@ void BackendStage::publishParticles(Utime utime) {
   ctx_->bus.publish(params_.particles_channel, out);
 }
 
-void BackendStage::checkOdometryQuiet(bus::HealthReport& report) {
-  const Utime now = ctx_->clock.now();
-  if (started_clock_ <= 0) started_clock_ = now;
-  const Utime last = last_odometry_clock_.load();
-  const Utime since = last > 0 ? last : started_clock_;
-  const double quiet_s = toSeconds(now - since);
-  report.add("odometry_age_s", quiet_s, "s");
-  if (quiet_s <= params_.odometry_timeout_s) return;
-  const std::string why = (last > 0 ? "no odometry on " : "no odometry yet on ") +
-                          params_.odometry_channel + " for " + std::to_string(quiet_s) +
-                          " s: the pose does not move with the robot";
-  report.warn(why);
-  if (!odometry_quiet_logged_.exchange(true)) log::warn(why);
-}
-
 void BackendStage::collectHealth(bus::HealthReport& report) {
   const backend::BackendCounters& c = backend_.counters();
   for (int s = static_cast<int>(MeasurementStatus::kAccepted); s < backend::kNumMeasurementStatus;
@@ -695,7 +679,9 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     report.add("graph_solve_ms", c.graph_last_solve_ms, "ms");
   }
   if (e.kidnapped) report.warn("kidnapping suspected: relocalizing from visual measurements");
-  checkOdometryQuiet(report);
+  if (odometry_watchdog_) odometry_watchdog_->report(ctx_->clock.now(), report);
+  report.add("repeated_measurements", static_cast<double>(repeated_measurements_.repeats()),
+             "count");
   period_updates_ = 0;
   period_update_ms_ = 0;
   period_max_update_ms_ = 0;

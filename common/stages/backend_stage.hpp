@@ -23,6 +23,8 @@
 #include <vslam/visual_measurement_t.hpp>
 
 #include "backend/backend.hpp"
+#include "bus/input_watchdog.hpp"
+#include "bus/repeat_filter.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
 #include "util/log.hpp"
@@ -99,12 +101,8 @@ class BackendStage final : public bus::Stage {
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
   Utime next_map_ = 0, next_particles_ = 0;
-  // Odometry watchdog (stage clock): the last reading's arrival, and whether
-  // its silence has been logged.
-  std::atomic<Utime> last_odometry_clock_{0};
-  std::atomic<bool> odometry_quiet_logged_{false};
-  Utime started_clock_ = 0;
-  void checkOdometryQuiet(bus::HealthReport& report);
+  std::unique_ptr<bus::InputWatchdog> odometry_watchdog_;  // from start()
+  bus::RepeatFilter repeated_measurements_;                // one fused twice would count twice
   log::RateLimitedWarnings<kNumLog> warnings_{5 * kMicrosPerSecond};
   // Period figures for health.
   int64_t period_updates_ = 0;

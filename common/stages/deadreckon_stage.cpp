@@ -21,7 +21,11 @@ const config::ParamTable<DeadReckonParams>& DeadReckonParams::table() {
         .add("max_step_m", &DeadReckonParams::max_step_m, config::positive(), "m",
              "larger jumps between two readings are faults: reference reset, no motion")
         .add("max_step_deg", &DeadReckonParams::max_step_deg, config::InRange{1, 180}, "deg",
-             "same for rotation");
+             "same for rotation")
+        .add("odometry_timeout_s", &DeadReckonParams::odometry_timeout_s,
+             config::InRange{0.05, 3600}, "s",
+             "odometry quieter than this (the stage's clock) is logged once and raises health to "
+             "WARN until it resumes");
     return t;
   }();
   return declared;
@@ -41,11 +45,16 @@ DeadReckonStage::DeadReckonStage(DeadReckonParams params)
 
 void DeadReckonStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
+  odometry_watchdog_ = std::make_unique<bus::InputWatchdog>(
+      "odometry on " + params_.odometry_channel, "odometry_age_s", params_.odometry_timeout_s,
+      ": the dead-reckoned pose does not move");
+  odometry_watchdog_->begin(ctx.clock.now());
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
 }
 
 void DeadReckonStage::onOdometry(const vslam::odometry_t& msg) {
+  odometry_watchdog_->arrived(ctx_->clock.now(), msg.utime);
   Pose2 step;
   const auto outcome = increments_.add({msg.utime, msg.seq, {msg.x, msg.y, msg.theta}}, &step);
   switch (outcome) {
@@ -92,6 +101,7 @@ void DeadReckonStage::onOdometry(const vslam::odometry_t& msg) {
 }
 
 void DeadReckonStage::collectHealth(bus::HealthReport& report) {
+  if (odometry_watchdog_) odometry_watchdog_->report(ctx_->clock.now(), report);
   report.add("steps", static_cast<double>(period_steps_), "count");
   report.add("ignored_readings", static_cast<double>(ignored_), "count");
   report.add("distance", distance_m_, "m");

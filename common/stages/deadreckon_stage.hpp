@@ -4,8 +4,10 @@
 // covariance, so evaluations can compare vSLAM against odometry alone (the
 // green paths of the paper's Figs. 7 and 9) on the same bus.
 
+#include <memory>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/input_watchdog.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
 #include "odometry/motion_model.hpp"
@@ -18,6 +20,7 @@ struct DeadReckonParams {
   std::string pose_channel;
   double max_step_m = 1.0;  // larger jumps between readings are faults, not motion
   double max_step_deg = 90.0;
+  double odometry_timeout_s = 2.0;  // quieter odometry is logged once and raises health to WARN
 
   // The keys of the block, declared once (config/param_table.hpp).
   static const config::ParamTable<DeadReckonParams>& table();
@@ -42,6 +45,7 @@ class DeadReckonStage final : public bus::Stage {
   int64_t ignored_ = 0;
   int64_t period_steps_ = 0;
   double distance_m_ = 0;
+  std::unique_ptr<bus::InputWatchdog> odometry_watchdog_;  // from start()
 };
 
 void registerDeadReckon(bus::StageRegistry& registry);

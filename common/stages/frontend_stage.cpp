@@ -96,6 +96,9 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
                 "camera_number x 10^9 + n and adds the other front-ends' proposals (nothing "
                 "persists)")
         .required()
+        .add("input_timeout_s", &P::input_timeout_s, InRange{0.05, 3600}, "s",
+             "images or odometry quieter than this (the stage's clock) are logged once and raise "
+             "health to WARN until they resume")
         .add("proposal_timeout_s", &P::proposal_timeout_s, InRange{0.1, 600}, "s",
              "an unanswered proposal is sent again after this (the DB restarted, or a message was "
              "lost)");
@@ -144,6 +147,14 @@ void FrontendStage::start(bus::StageContext& ctx) {
   ctx_ = &ctx;
   worker_ = std::make_unique<bus::LatestWinsWorker<vslam::image_t>>(
       ctx.mode, [this](vslam::image_t& img) { process(img); });
+  image_watchdog_ = std::make_unique<bus::InputWatchdog>("images on " + camera().image_channel,
+                                                         "image_age_s", params_.input_timeout_s,
+                                                         ": nothing is measured or created");
+  odometry_watchdog_ = std::make_unique<bus::InputWatchdog>(
+      "odometry on " + params_.odometry_channel, "odometry_age_s", params_.input_timeout_s,
+      ": no landmarks can be created");
+  image_watchdog_->begin(ctx.clock.now());
+  odometry_watchdog_->begin(ctx.clock.now());
   ctx.bus.subscribe<vslam::odometry_t>(params_.odometry_channel,
                                        [this](const vslam::odometry_t& m) { onOdometry(m); });
   if (params_.use_landmark_db) {
@@ -172,6 +183,7 @@ void FrontendStage::stop() {
 }
 
 void FrontendStage::onOdometry(const vslam::odometry_t& m) {
+  odometry_watchdog_->arrived(ctx_->clock.now(), m.utime);
   if (frontend_.addOdometry(m.utime, Pose2{m.x, m.y, m.theta}) ==
       frontend::Frontend::OdometryVerdict::kNotFinite) {
     ctx_->bus.reportMalformed(params_.odometry_channel, "non-finite odometry pose");
@@ -179,6 +191,8 @@ void FrontendStage::onOdometry(const vslam::odometry_t& m) {
 }
 
 void FrontendStage::onImage(const vslam::image_t& msg) {
+  image_watchdog_->arrived(ctx_->clock.now(), msg.utime);
+  if (repeated_images_.repeated("", msg.seq, msg.utime)) return;
   if (!worker_->post(msg)) ctx_->bus.countDropped();
 }
 
@@ -489,6 +503,10 @@ vslam::landmark_update_t FrontendStage::makeProposal(const frontend::NewLandmark
 }
 
 void FrontendStage::collectHealth(bus::HealthReport& report) {
+  if (image_watchdog_) {
+    image_watchdog_->report(ctx_->clock.now(), report);
+    odometry_watchdog_->report(ctx_->clock.now(), report);
+  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const Stats d{stats_.frames - last_.frames,
                 stats_.features - last_.features,
@@ -541,6 +559,7 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
     report.add("replica_removed", static_cast<double>(stats_.replica_removed), "count");
   }
   report.add("frames_dropped", static_cast<double>(worker_ ? worker_->dropped() : 0), "count");
+  report.add("frames_repeated", static_cast<double>(repeated_images_.repeats()), "count");
   report.add("frames_prefetched", static_cast<double>(stats_.prefetched), "count");
   report.add("frames_gained", static_cast<double>(stats_.gained), "count");
   if (d.no_odometry > 0) report.warn("frames without odometry: no landmarks can be created");

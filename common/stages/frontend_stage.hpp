@@ -40,7 +40,9 @@
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
 
+#include "bus/input_watchdog.hpp"
 #include "bus/latest_worker.hpp"
+#include "bus/repeat_filter.hpp"
 #include "bus/serial_worker.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
@@ -58,6 +60,7 @@ struct FrontendStageParams {
   std::string update_channel, summary_channel, request_channel;
   bool use_landmark_db = true;      // landmark_db: required (true) | none
   double proposal_timeout_s = 2.0;  // unanswered proposals are sent again after this
+  double input_timeout_s = 2.0;     // quieter images or odometry: logged once, health WARN
 
   // The keys of the block, declared once (config/param_table.hpp).
   static const config::ParamTable<FrontendStageParams>& table();
@@ -116,6 +119,8 @@ class FrontendStage final : public bus::Stage {
   FrontendStageParams params_;
   bus::StageContext* ctx_ = nullptr;
   std::unique_ptr<bus::LatestWinsWorker<vslam::image_t>> worker_;
+  std::unique_ptr<bus::InputWatchdog> image_watchdog_, odometry_watchdog_;  // from start()
+  bus::RepeatFilter repeated_images_{8};  // a frame delivered twice is measured once
   frontend::Frontend frontend_;
   cv::Mat gray_;
   // Lock-step replay: SIFT of the coming frames of this camera, extracted in

@@ -2,12 +2,16 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdlib>
+#include <iostream>
 #include <regex>
+#include <stdexcept>
+#include <string>
 
 #include "bus/lockstep_replay.hpp"
 #include "bus/process_main.hpp"
 #include "config/stack_config.hpp"
 #include "stages/builtin_stages.hpp"
+#include "util/command_line.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -72,13 +76,33 @@ int runReplayCli(const std::vector<std::string>& args) {
   app.add_flag("!--no-inputs", options.keep_inputs, "write only what the stages publish");
   app.add_flag("--keep-health", options.keep_health,
                "also write health messages (wall-clock timing: not deterministic)");
-  try {
-    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help (0) or the error and a hint
-    return code == 0 ? kExitOk : kExitUsage;
-  }
+  // Message loss (testing): checked by bus::validateLossOptions below, the one
+  // place that knows the valid values.
+  bus::LossOptions& loss = options.loss;
+  app.add_option("--drop", loss.drop,
+                 "drop this fraction of the messages each stage receives on the loss channels "
+                 "(inputs and stage outputs alike; the output log keeps all)")
+      ->capture_default_str();
+  app.add_option("--duplicate", loss.duplicate,
+                 "deliver this fraction of the delivered messages twice")
+      ->capture_default_str();
+  app.add_option("--reorder", loss.reorder,
+                 "hold this fraction of the delivered messages back until the next one on their "
+                 "channel")
+      ->capture_default_str();
+  app.add_option("--loss-seed", loss.seed, "seed of the loss decisions (same seed, same run)")
+      ->capture_default_str();
+  app.add_option("--loss-channels", loss.channels,
+                 "regular expression: the channels that lose messages")
+      ->capture_default_str();
+  const auto code = parseCommandLine(app, "vslam-replay", args, std::cout, std::cerr, [&] {
+    try {
+      bus::validateLossOptions(options.loss);
+    } catch (const std::invalid_argument& e) {
+      throw CLI::ValidationError(e.what());
+    }
+  });
+  if (code) return *code;
   options.input = input;
   options.output = output;
   config_file = config::resolveStackConfig(config_file);
@@ -103,6 +127,13 @@ int runReplayCli(const std::vector<std::string>& args) {
               "; wrote ", s.events_written, " events to ", options.output.string(), "; ",
               s.log_seconds, " s of log in ", s.wall_seconds, " s (",
               s.wall_seconds > 0 ? s.log_seconds / s.wall_seconds : 0.0, "x real time)");
+    if (options.loss.active()) {
+      // Counted per receiving stage: a message two stages subscribe to is offered twice.
+      log::info("message loss, all channels: ", bus::describeLoss(s.loss));
+      for (const auto& [channel, counts] : s.loss_per_channel) {
+        log::info("message loss on ", channel, ": ", bus::describeLoss(counts));
+      }
+    }
     return s.input_truncated || s.events_missing > 0 ? kExitFailure : kExitOk;
   } catch (const config::ConfigError& e) {
     log::error("configuration error: ", e.what());
