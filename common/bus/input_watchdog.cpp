@@ -31,7 +31,9 @@ void InputWatchdog::arrived(Utime now, Utime stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (started_ == 0) started_ = now;
   if (quiet_logged_) {
-    log::info(input_, " back after ", seconds(now - last_arrival_), " s without");
+    const Utime since = last_arrival_ > 0 ? last_arrival_ : started_;
+    log::info(input_, last_arrival_ > 0 ? " back after " : " first after ", seconds(now - since),
+              " s without");
     quiet_logged_ = false;
   }
   if (last_arrival_ > 0 && last_stamp_ > 0) {

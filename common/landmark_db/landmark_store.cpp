@@ -153,8 +153,13 @@ LandmarkStore::LandmarkStore(const std::filesystem::path& file, const StoreOptio
 }
 
 LandmarkStore::~LandmarkStore() {
-  // Fold the WAL into the main file so the map is one file again.
-  if (db_ && !read_only_ && !in_memory_) db_->tryExec("PRAGMA wal_checkpoint(TRUNCATE)");
+  // Fold the WAL into the main file and leave WAL mode, so the map is one
+  // file again and a read-only look at it (vslam-map list) creates no
+  // -wal/-shm beside it.
+  if (db_ && !read_only_ && !in_memory_) {
+    db_->tryExec("PRAGMA wal_checkpoint(TRUNCATE)");
+    db_->tryExec("PRAGMA journal_mode=DELETE");
+  }
 }
 
 void LandmarkStore::checkIdentity() {

@@ -98,6 +98,27 @@ TEST_F(LandmarkDbTest, AssignsStableIdsAndReloadsEverythingFromTheFile) {
   EXPECT_EQ(db->store().integrityCheck(), "ok");
 }
 
+TEST_F(LandmarkDbTest, AClosedMapIsOneFileThatAReadOnlyLookLeavesAlone) {
+  const fs::path file = dir_ / "map.vslam-map";
+  {
+    auto db = openDb(file);
+    ASSERT_EQ(db->propose(syntheticInfo("forward", 1, kT0, {}), syntheticStructure(30, 1)).outcome,
+              ProposalOutcome::kCreated);
+    EXPECT_TRUE(fs::exists(file.string() + "-wal")) << "open, the map writes ahead";
+  }
+  EXPECT_FALSE(fs::exists(file.string() + "-wal")) << "closed: one file";
+  EXPECT_FALSE(fs::exists(file.string() + "-shm"));
+  {
+    StoreOptions read_only;
+    read_only.read_only = true;
+    LandmarkStore store(file, read_only);  // as vslam-map list opens it
+    EXPECT_EQ(store.loadAllInfo().size(), 1u);
+  }
+  EXPECT_FALSE(fs::exists(file.string() + "-wal")) << "a read-only look creates nothing";
+  EXPECT_FALSE(fs::exists(file.string() + "-shm"));
+  EXPECT_EQ(openDb(file)->numStored(), 1u) << "and it opens for writing again";
+}
+
 TEST_F(LandmarkDbTest, InvalidProposalsAreRefusedAndNothingIsStored) {
   auto db = openDb(dir_ / "map.vslam-map");
   auto bad = syntheticStructure(20, 1);
