@@ -6,6 +6,7 @@
 #include <vslam/pose_estimate_t.hpp>
 
 #include "landmark_db/landmark_store.hpp"
+#include "stages/landmark_db_stage.hpp"
 #include "stages/prefilter_config.hpp"
 #include "util/log.hpp"
 
@@ -271,9 +272,24 @@ const ParamTable<BackendStageParams>& BackendStageParams::table() {
             "landmark_min_interval_s",
             [](auto& p) -> auto& { return p.backend.landmark_min_interval_s; }, InRange{0, 60}, "s",
             "at most one measurement per landmark per interval (0: all)")
-        .path("map_prior_file", &P::map_prior_file, true,
-              "an earlier run's landmark map file (copy of `landmark_db.map_file`): its landmarks "
-              "with a back-end pose start in every particle (localization in a known map)")
+        .custom(
+            "map_prior_file", "path",
+            "an earlier run's landmark map file (copy of `landmark_db.map_file`): its landmarks "
+            "with a back-end pose start in every particle (localization in a known map); "
+            "`landmark_db`: this stack's landmark DB's map file, if it exists (with "
+            "`map_prior_start: unknown`, a restarted back-end relocalizes in the DB's map)",
+            [](const config::ConfigNode& node, const std::string& key, P& p) {
+              if (!node.has(key)) return node.markUsed(key);
+              const std::string text = node.getString(key, true);
+              p.map_prior_from_landmark_db = text == "landmark_db";
+              p.map_prior_file = text.empty() || p.map_prior_from_landmark_db
+                                     ? std::filesystem::path()
+                                     : node.getPath(key, true);
+            },
+            [](const P& p) {
+              return p.map_prior_from_landmark_db ? std::string("landmark_db")
+                                                  : config::valueText(p.map_prior_file.string());
+            })
         .add("map_prior_sigma_xy_m", &P::map_prior_sigma_xy_m, InRange{1e-4, 10.0}, "m",
              "their standard deviation, x and y")
         .degrees("map_prior_sigma_theta_deg", &P::map_prior_sigma_theta_rad, InRange{1e-3, 90.0},
@@ -336,8 +352,28 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
 
 BackendStage::BackendStage(BackendStageParams params)
     : params_(std::move(params)), backend_(params_.backend) {
+  if (params_.map_prior_from_landmark_db) {
+    std::error_code ec;
+    if (params_.map_prior_file.empty() || !std::filesystem::exists(params_.map_prior_file, ec)) {
+      log::info("no landmark DB map file yet: starting a new map at the origin");
+      return;
+    }
+  }
   if (!params_.map_prior_file.empty()) loadMapPrior();
 }
+
+namespace {
+
+// The map file of the stack's landmark DB (empty: none, or in memory).
+std::filesystem::path landmarkDbMapFile(const config::StackConfig& stack) {
+  for (const auto& instance : stack.instances()) {
+    if (stack.roleOf(instance) != "landmark_db") continue;
+    return LandmarkDbParams::load(stack.process(instance), stack.robot).map_file;
+  }
+  return {};
+}
+
+}  // namespace
 
 void BackendStage::loadMapPrior() {
   landmark_db::StoreOptions options;
@@ -691,8 +727,10 @@ void registerBackend(bus::StageRegistry& registry) {
   registry.add(
       "backend",
       [](const bus::StageSetup& setup) {
-        return std::make_unique<BackendStage>(
-            BackendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack)));
+        BackendStageParams p =
+            BackendStageParams::load(setup.params, setup.stack.robot, loadPrefilter(setup.stack));
+        if (p.map_prior_from_landmark_db) p.map_prior_file = landmarkDbMapFile(setup.stack);
+        return std::make_unique<BackendStage>(std::move(p));
       },
       bus::describeWith(BackendStageParams::table()));
 }

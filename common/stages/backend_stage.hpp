@@ -53,6 +53,10 @@ struct BackendStageParams {
   // with this standard deviation; the particles start at the map origin
   // (the earlier run's start pose). Empty: start with an empty map.
   std::filesystem::path map_prior_file;
+  // `map_prior_file: landmark_db`: the map file of this stack's landmark DB,
+  // read if it exists (a restarted back-end, or a new session in a mapped
+  // home, continues in the DB's frame instead of starting a new one).
+  bool map_prior_from_landmark_db = false;
   double map_prior_sigma_xy_m = 0.05;
   double map_prior_sigma_theta_rad = 1.0 * M_PI / 180;
   // Where the robot starts in the map prior: at its origin (the pose of the

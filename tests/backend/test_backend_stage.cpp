@@ -574,6 +574,51 @@ TEST(BackendStage, RelocalizesInAMapFileFromAnUnknownStart) {
   fs::remove_all(dir);
 }
 
+// Issue 19: a back-end restarted (kill -9) while the landmark DB runs
+// started at the origin of a new frame with an empty map and then moved the
+// DB's landmarks into that frame. With `map_prior_file: landmark_db` it reads
+// the DB's map file, if there is one yet, and relocalizes in it.
+TEST(BackendStage, ARestartedBackendContinuesInTheLandmarkDatabasesMap) {
+  const fs::path dir = vslam::test::scratchDir("backend_restart_prior");
+  const fs::path config = dir / "vslam.yaml";
+  writeBackendConfig(config,
+                     "num_particles: 100\nmap_prior_file: landmark_db\nmap_prior_start: unknown\n");
+  {  // the shipped landmark_db block, its map file next to this config
+    std::ifstream shipped(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+    std::ofstream out(config, std::ios::app);
+    bool in_block = false;
+    for (std::string line; std::getline(shipped, line);) {
+      if (line.rfind("  ", 0) == 0 && line.size() > 2 && line[2] != ' ' && line[2] != '#') {
+        in_block = line == "  landmark_db:";
+      }
+      if (!in_block) continue;
+      if (line.find("map_file:") != std::string::npos)
+        line = "    map_file: maps/landmarks.vslam-map";
+      out << line << "\n";
+    }
+  }
+  auto create = [&] {
+    const auto stack = config::StackConfig::loadFile(config);
+    auto stage = stages::builtinStages().create(stack, "backend", "backend");
+    return std::unique_ptr<stages::BackendStage>(
+        dynamic_cast<stages::BackendStage*>(stage.release()));
+  };
+  {  // the first start of a home: no map file yet, a new map at the origin
+    const auto first = create();
+    ASSERT_NE(first, nullptr);
+    EXPECT_EQ(first->priorLandmarks(), 0u);
+    EXPECT_FALSE(first->backend().filter().kidnapped());
+  }
+  // The DB has stored landmarks with back-end poses; the back-end restarts.
+  fs::create_directories(dir / "maps");
+  writePriorMap(dir / "maps/landmarks.vslam-map", {{1, {1.0, 2.0, 0.5}}, {2, {3.0, 0.5, 2.0}}}, 3);
+  const auto restarted = create();
+  ASSERT_NE(restarted, nullptr);
+  EXPECT_EQ(restarted->priorLandmarks(), 2u) << "the DB's landmarks with a map pose";
+  EXPECT_TRUE(restarted->backend().filter().kidnapped()) << "relocalizing, not at the origin";
+  fs::remove_all(dir);
+}
+
 // Issue 19: a back-end left without odometry for 12 s logged nothing. Here
 // odometry stops for 6 s of log time while measurements keep the clock
 // going: health reports the silence and warns, and clears when it resumes.
