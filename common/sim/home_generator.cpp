@@ -1515,7 +1515,9 @@ class GridPlanner {
     g[static_cast<size_t>(a)] = 0;
     open.push({h(a), a});
     while (!open.empty()) {
-      const auto [f, c] = open.top();
+      // Not a structured binding: clang 14 (scripts/fuzz) cannot capture one.
+      const double f = open.top().first;
+      const int c = open.top().second;
       open.pop();
       if (c == b) break;
       if (f > g[static_cast<size_t>(c)] + h(c) + 1e-9) continue;
