@@ -483,7 +483,9 @@ void BackendStage::onOdometry(const vslam::odometry_t& msg) {
       break;
   }
   publishPose(msg);
-  if (params_.map_rate_hz > 0 && msg.utime >= next_map_) {
+  // While kidnapped (also a start in a saved map before its relocalization)
+  // the pose is in no frame yet: the DB must not store landmark poses of it.
+  if (params_.map_rate_hz > 0 && msg.utime >= next_map_ && !backend_.filter().kidnapped()) {
     publishMap(msg.utime);
     next_map_ = msg.utime + periodUs(params_.map_rate_hz);
   }

@@ -619,6 +619,75 @@ TEST(BackendStage, ARestartedBackendContinuesInTheLandmarkDatabasesMap) {
   fs::remove_all(dir);
 }
 
+// Issue 19: a back-end that started kidnapped in the DB's map published MAP
+// before it had relocalized, and the DB stored those landmark poses. MAP now
+// waits for the relocalization; the prior's poses come through it (within
+// the filter's updates from the measurements).
+TEST(BackendStage, PublishesNoMapUntilItHasRelocalized) {
+  const fs::path dir = vslam::test::scratchDir("backend_map_after_relocalization");
+  const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {3.0, 0.5, 2.0}}};
+  writePriorMap(dir / "landmarks.vslam-map", poses, 2);
+  writeBackendConfig(dir / "vslam.yaml",
+                     "num_particles: 100\nmap_prior_file: landmarks.vslam-map\n"
+                     "map_prior_start: unknown\nmap_rate_hz: 5\nkidnap:\n  recover_landmarks: 2\n");
+  const Pose2 truth{2.2, 1.4, 1.0};  // where the robot stands, not moving
+  const int64_t t0 = 1767225600LL * kMicrosPerSecond;
+  auto at = [&](double s) { return t0 + static_cast<int64_t>(s * 1e6); };
+  {
+    bus::LogWriter log(dir / "in.lcmlog");
+    int64_t seq = 0;
+    for (double s = 0; s < 8.0; s += 0.02) {
+      vslam::odometry_t o{};
+      o.utime = at(s);
+      o.seq = seq++;
+      log.writeMessage(o.utime, "ODOMETRY", o);
+      // Landmark 1 alone from 2 s (no relocalization on one landmark), then 2 from 5 s.
+      const int step = static_cast<int>(std::lround(s / 0.02));
+      if (s < 2.0 || step % 10 != 0) continue;
+      vslam::visual_measurement_t m{};
+      m.utime = o.utime;
+      m.seq = step;
+      m.camera = "forward";
+      m.landmark_id = s >= 5.0 && step % 20 == 0 ? 2 : 1;
+      const Pose2 rel = poses.at(m.landmark_id).between(truth);
+      m.dx = rel.x;
+      m.dy = rel.y;
+      m.dtheta = rel.theta;
+      m.num_points = 40;
+      m.proj_err_rms = 0.5;
+      m.slope = 0.01;
+      m.status = vslam::visual_measurement_t::STATUS_UNFILTERED;
+      log.writeMessage(m.utime, "VISUAL_MEASUREMENT", m);
+    }
+  }
+  replayBackend(config::StackConfig::loadFile(dir / "vslam.yaml"), dir);
+
+  int64_t relocalized = -1;
+  int maps_before = 0, maps_after = 0;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel == "POSE_ESTIMATE") {
+      const auto p = decode<vslam::pose_estimate_t>(e);
+      if (relocalized < 0 && !p.kidnapped) relocalized = p.utime;
+    } else if (e.channel == "MAP") {
+      const auto m = decode<vslam::map_t>(e);
+      if (relocalized < 0 || m.utime < relocalized) {
+        ++maps_before;
+        continue;
+      }
+      ++maps_after;
+      for (const auto& l : m.landmarks) {
+        ASSERT_TRUE(poses.count(l.landmark_id)) << l.landmark_id;
+        EXPECT_NEAR(l.x, poses.at(l.landmark_id).x, 0.1) << l.landmark_id;
+        EXPECT_NEAR(l.y, poses.at(l.landmark_id).y, 0.1) << l.landmark_id;
+      }
+    }
+  }
+  EXPECT_GE(relocalized, at(5.0)) << "relocalized on one landmark";
+  EXPECT_EQ(maps_before, 0) << "MAP published before the relocalization";
+  EXPECT_GE(maps_after, 5) << "no MAP after the relocalization";
+  fs::remove_all(dir);
+}
+
 // Issue 19: a back-end left without odometry for 12 s logged nothing. Here
 // odometry stops for 6 s of log time while measurements keep the clock
 // going: health reports the silence and warns, and clears when it resumes.
