@@ -1,12 +1,12 @@
 #include "stages/image_gray.hpp"
 
 #include <csetjmp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 // clang-format off
 #include <cstdio>  // before jpeglib.h, which uses FILE without including <stdio.h>
 #include <jpeglib.h>
+#include <jerror.h>
 // clang-format on
 
 namespace vslam::stages {
@@ -29,7 +29,8 @@ std::optional<std::string> rawDataProblem(const vslam::image_t& msg, int channel
 }
 
 // libjpeg reports errors through a callback that must not return: it jumps
-// back to readJpegHeader (libjpeg is C, an exception must not cross it).
+// back to the function that set the trap (libjpeg is C, an exception must not
+// cross it).
 struct JpegErrorTrap {
   jpeg_error_mgr manager;  // first: libjpeg hands the callbacks &manager
   std::jmp_buf jump;
@@ -61,6 +62,40 @@ bool parseJpegHeader(const uint8_t* data, size_t size, jpeg_decompress_struct* c
   return true;
 }
 
+// In the scan, a warning is damage: a frame that lost part of its data
+// (a USB or network packet) decodes to gray or smeared blocks, which would
+// make features of their own. Extraneous bytes before a marker, which many
+// UVC cameras write after their data, are not.
+void jumpOnJpegScanWarning(j_common_ptr cinfo, int level) {
+  if (level < 0 && cinfo->err->msg_code != JWRN_EXTRANEOUS_DATA) jumpOnJpegError(cinfo);
+}
+
+// Decodes data[0, size) as gray into rows of `stride` bytes at pixels, which
+// hold width x height: true, or false and why in trap->message. Free of C++
+// objects, as parseJpegHeader.
+bool decompressJpegGray(const uint8_t* data, size_t size, int width, int height, uint8_t* pixels,
+                        size_t stride, jpeg_decompress_struct* cinfo, JpegErrorTrap* trap) {
+  if (setjmp(trap->jump) != 0) return false;
+  jpeg_create_decompress(cinfo);
+  jpeg_mem_src(cinfo, data, static_cast<unsigned long>(size));
+  jpeg_read_header(cinfo, TRUE);
+  cinfo->out_color_space = JCS_GRAYSCALE;
+  jpeg_start_decompress(cinfo);
+  if (cinfo->output_width != static_cast<JDIMENSION>(width) ||
+      cinfo->output_height != static_cast<JDIMENSION>(height) || cinfo->output_components != 1) {
+    std::snprintf(trap->message, sizeof trap->message, "decodes to %ux%u with %d components",
+                  cinfo->output_width, cinfo->output_height, cinfo->output_components);
+    return false;
+  }
+  trap->manager.emit_message = jumpOnJpegScanWarning;
+  while (cinfo->output_scanline < cinfo->output_height) {
+    JSAMPROW row = pixels + static_cast<size_t>(cinfo->output_scanline) * stride;
+    jpeg_read_scanlines(cinfo, &row, 1);
+  }
+  jpeg_finish_decompress(cinfo);
+  return true;
+}
+
 // Why the JPEG in msg cannot be decoded at the size the message announces.
 std::optional<std::string> jpegDataProblem(const vslam::image_t& msg) {
   JpegHeader header;
@@ -79,8 +114,8 @@ std::optional<std::string> jpegDataProblem(const vslam::image_t& msg) {
 }  // namespace
 
 std::optional<std::string> readJpegHeader(const uint8_t* data, size_t size, JpegHeader* header) {
-  // OpenCV's imdecode picks the decoder by signature: without this, PNG or
-  // TIFF bytes labelled JPEG would be decoded unchecked.
+  // Bytes that are not a JPEG at all (PNG or TIFF labelled JPEG) get a
+  // refusal that says so.
   if (size < 4 || data[0] != 0xFF || data[1] != 0xD8 || data[2] != 0xFF) {
     return std::string("not a JPEG (no start-of-image marker)");
   }
@@ -126,11 +161,20 @@ std::optional<std::string> checkImage(const config::CameraConfig& camera,
 
 std::optional<std::string> imageToGray(const vslam::image_t& msg, cv::Mat* gray) {
   if (msg.encoding == vslam::image_t::ENCODING_JPEG) {
-    // Checked again here: imdecode allocates what the header announces.
+    // Checked again here: the pixels are allocated at the announced size.
     if (auto problem = jpegDataProblem(msg)) return problem;
-    *gray = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
-    if (gray->empty() || gray->cols != msg.width || gray->rows != msg.height) {
-      return std::string("JPEG does not decode to the announced size");
+    gray->create(msg.height, msg.width, CV_8UC1);
+    jpeg_decompress_struct cinfo{};
+    JpegErrorTrap trap{};
+    cinfo.err = jpeg_std_error(&trap.manager);
+    trap.manager.error_exit = jumpOnJpegError;
+    trap.manager.emit_message = jumpOnJpegWarning;
+    const bool decoded = decompressJpegGray(msg.data.data(), msg.data.size(), msg.width, msg.height,
+                                            gray->data, gray->step[0], &cinfo, &trap);
+    jpeg_destroy_decompress(&cinfo);
+    if (!decoded) {
+      gray->release();
+      return std::string("damaged JPEG: ") + trap.message;
     }
     return std::nullopt;
   }

@@ -37,7 +37,8 @@ std::optional<std::string> checkImage(const config::CameraConfig& camera,
                                       const vslam::image_t& msg);
 
 // The pixels of an image as 8-bit gray in *gray (its storage reused):
-// copied, converted from BGR, or decoded from JPEG. The sizes are checked
+// copied, converted from BGR, or decoded from JPEG (refused when its scan
+// data is damaged: libjpeg's warnings in the scan). The sizes are checked
 // here too (a raw image's data, a JPEG's header against the message's size
 // before decoding), so an unchecked message is refused, not read past its
 // data or decoded at a size nobody asked for.
