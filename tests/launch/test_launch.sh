@@ -196,6 +196,19 @@ rc=0
 [ "$rc" -ne 0 ] && grep -q no-such-profile "$work/none.out" || fail "unknown profile: exit $rc, $(cat "$work/none.out")"
 pass "unknown profile refused"
 
+# --- --programs: one computer's share of the profile --------------------------
+rc=0
+"$LAUNCH" "$PROFILE" --programs beta,alpha --check >"$work/programs.out" 2>&1 || rc=$?
+[ "$rc" -eq 0 ] || fail "--programs beta,alpha --check: exit $rc: $(cat "$work/programs.out")"
+order=$(sed -n 's/.*start order.*: //p' "$work/programs.out")
+[[ $order == "alpha("*") beta("*")" ]] || fail "--programs beta,alpha ran other programs: $order"
+rc=0
+"$LAUNCH" "$PROFILE" --programs alpha,gamma --check >"$work/programs.out" 2>&1 || rc=$?
+[ "$rc" -eq 2 ] && grep -q "no program 'gamma'" "$work/programs.out" &&
+  grep -q "alpha beta crasher once" "$work/programs.out" ||
+  fail "--programs naming an unknown program: exit $rc: $(cat "$work/programs.out")"
+pass "--programs runs only the programs named, refuses one the profile lacks"
+
 # --- (f) a group whose programs all fail stops by itself, non-zero ------------
 cat >"$work/failing.conf" <<'CONF'
 ; Exits 3 at once and is not restarted: EXITED, status not in exitcodes.

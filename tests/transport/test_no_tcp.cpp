@@ -1,7 +1,7 @@
 // What the stack exposes to the network (docs/reliability.md, "Security"):
 //  - the default LCM URL, wherever it is written (the struct default in
 //    config/stack_config.hpp, any lcm.url of the shipped configs, the
-//    defaults of scripts/launch, scripts/record and scripts/spy), has ttl=0:
+//    scripts' default in scripts/lib/default-lcm-url, scripts/spy's), has ttl=0:
 //    its multicast does not leave the host;
 //  - real processes (vslam-deadreckon, vslam-landmark-db with a map file) on
 //    the default URL, in a private network namespace, hold UDP sockets and no
@@ -87,17 +87,24 @@ TEST(DefaultUrl, KeepsMulticastOnTheHost) {
   }
   EXPECT_GE(configs, 1) << "no stack config found in " << VSLAM_SOURCE_DIR << "/config";
 
-  // The scripts' own defaults (scripts/launch passes its URL to every
-  // program with --lcm-url, over any lcm.url of the config).
-  for (const char* name : {"launch", "record", "spy"}) {
-    const fs::path script = fs::path(VSLAM_SOURCE_DIR) / "scripts" / name;
-    const auto urls = scriptUrls(script);
-    EXPECT_FALSE(urls.empty()) << script << " names no udpm:// URL outside its comments";
-    for (const auto& url : urls) EXPECT_EQ(ttlOf(url), "0") << script << ": " << url;
+  // The scripts' default (scripts/launch passes its URL to every program
+  // with --lcm-url, over any lcm.url of the config): one file, the same URL
+  // as the processes', read by scripts/launch, scripts/record and the
+  // campaigns (scripts/lib/live_stack.py); scripts/spy has its own.
+  const fs::path scripts = fs::path(VSLAM_SOURCE_DIR) / "scripts";
+  std::string shared = readText(scripts / "lib" / "default-lcm-url");
+  shared.erase(shared.find_last_not_of(" \n") + 1);
+  EXPECT_EQ(shared, vslam::config::kDefaultLcmUrl) << scripts / "lib" / "default-lcm-url";
+  for (const char* name : {"launch", "record", "lib/live_stack.py"}) {
+    EXPECT_NE(readText(scripts / name).find("default-lcm-url"), std::string::npos)
+        << scripts / name << " no longer reads scripts/lib/default-lcm-url: update this test";
+    for (const auto& url : scriptUrls(scripts / name)) {
+      EXPECT_EQ(ttlOf(url), "0") << scripts / name << ": " << url;
+    }
   }
-  const std::string launch = readText(fs::path(VSLAM_SOURCE_DIR) / "scripts" / "launch");
-  EXPECT_NE(launch.find("DEFAULT_LCM_URL='udpm://"), std::string::npos)
-      << "scripts/launch no longer declares DEFAULT_LCM_URL: update this test";
+  const auto spy_urls = scriptUrls(scripts / "spy");
+  EXPECT_FALSE(spy_urls.empty()) << "scripts/spy names no udpm:// URL outside its comments";
+  for (const auto& url : spy_urls) EXPECT_EQ(ttlOf(url), "0") << "scripts/spy: " << url;
 
   // ttlOf itself.
   EXPECT_EQ(ttlOf("udpm://239.255.76.67:7667?ttl=1"), "1");
