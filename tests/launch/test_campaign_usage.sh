@@ -50,11 +50,13 @@ echo "ok: scripts/soak command line"
 
 script=$ROOT/scripts/multihost
 out=$("$script" --help) || fail "multihost --help exited $?"
-for option in --scenario --duration --speed --layouts --out --check --max-ate; do
+for option in --scenario --duration --speed --layouts --link-loss --out --check --max-ate; do
   grep -q -- "$option" <<<"$out" || fail "multihost --help does not mention $option"
 done
 expect_usage_error "unknown layout 'two-hosts'" --layouts three-hosts,two-hosts --out "$work/c"
 expect_usage_error "must be > 0" --speed 0 --out "$work/c"
+expect_usage_error "--link-loss expects percentages" --link-loss 1,lots --out "$work/c"
+expect_usage_error "each percentage must be in (0, 100)" --link-loss 0.5,100 --out "$work/c"
 expect_usage_error "no scenario 'nowhere'" --scenario nowhere --out "$work/c"
 expect_usage_error "bad command line" --no-such-option
 [ ! -e "$work/c" ] || fail "a refused multihost command line created its output directory"
