@@ -50,6 +50,13 @@ void jumpOnJpegWarning(j_common_ptr cinfo, int level) {
   if (level < 0) jumpOnJpegError(cinfo);
 }
 
+// Every libjpeg error jumps to the trap, and so does a warning.
+void armJpegTrap(jpeg_decompress_struct* cinfo, JpegErrorTrap* trap) {
+  cinfo->err = jpeg_std_error(&trap->manager);
+  trap->manager.error_exit = jumpOnJpegError;
+  trap->manager.emit_message = jumpOnJpegWarning;
+}
+
 // jpeg_read_header over data[0, size): true and the header in *cinfo, or
 // false and libjpeg's message in trap->message. Kept free of C++ objects,
 // whose destructors the jump would skip.
@@ -127,9 +134,7 @@ std::optional<std::string> readJpegHeader(const uint8_t* data, size_t size, Jpeg
   }
   jpeg_decompress_struct cinfo{};
   JpegErrorTrap trap{};
-  cinfo.err = jpeg_std_error(&trap.manager);
-  trap.manager.error_exit = jumpOnJpegError;
-  trap.manager.emit_message = jumpOnJpegWarning;
+  armJpegTrap(&cinfo, &trap);
   const bool parsed = parseJpegHeader(data, size, &cinfo, &trap);
   if (parsed) {
     header->width = static_cast<int>(cinfo.image_width);
@@ -166,9 +171,7 @@ std::optional<std::string> imageToGray(const vslam::image_t& msg, cv::Mat* gray)
     gray->create(msg.height, msg.width, CV_8UC1);
     jpeg_decompress_struct cinfo{};
     JpegErrorTrap trap{};
-    cinfo.err = jpeg_std_error(&trap.manager);
-    trap.manager.error_exit = jumpOnJpegError;
-    trap.manager.emit_message = jumpOnJpegWarning;
+    armJpegTrap(&cinfo, &trap);
     const bool decoded = decompressJpegGray(msg.data.data(), msg.data.size(), msg.width, msg.height,
                                             gray->data, gray->step[0], &cinfo, &trap);
     jpeg_destroy_decompress(&cinfo);
