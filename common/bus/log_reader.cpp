@@ -1,7 +1,10 @@
 #include "bus/log_reader.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <sstream>
 
 #include "util/log.hpp"
@@ -121,9 +124,12 @@ const lcm::LogEvent* LogReader::next() {
     end_of_last_event_ = end;
     ++stats_.events_read;
     // lcm-logger numbers events consecutively: a gap is events lost to damage.
-    if (on_damage_ == LogDamage::kSkip && stats_.events_read > 1 &&
-        ev->eventnum > last_eventnum_ + 1) {
-      const int64_t gap = ev->eventnum - last_eventnum_ - 1;
+    // The numbers are the file's word, anything in 64 bits: no overflow.
+    if (on_damage_ == LogDamage::kSkip && stats_.events_read > 1 && ev->eventnum > last_eventnum_ &&
+        static_cast<uint64_t>(ev->eventnum) - static_cast<uint64_t>(last_eventnum_) > 1) {
+      const auto gap = static_cast<int64_t>(std::min<uint64_t>(
+          static_cast<uint64_t>(ev->eventnum) - static_cast<uint64_t>(last_eventnum_) - 1,
+          static_cast<uint64_t>(std::numeric_limits<int64_t>::max() - stats_.events_missing)));
       stats_.events_missing += gap;
       log::warn("input log ", name_, ": ", gap, " event(s) missing before event ", ev->eventnum,
                 "; continuing");

@@ -33,6 +33,14 @@ std::string describeRange(const InRange& r) {
   return bounds[0] == '[' ? "a number in " + bounds : "a number " + bounds;
 }
 
+const char* typeName(const YAML::Node& n);
+
+// YAML allows a list or a mapping as a key; a config has names only. Such a
+// key is named by what it is, for the error that refuses it.
+std::string keyText(const YAML::Node& key) {
+  return key.IsScalar() ? key.Scalar() : std::string("(") + typeName(key) + " as a key)";
+}
+
 const char* typeName(const YAML::Node& n) {
   switch (n.Type()) {
     case YAML::NodeType::Null:
@@ -144,7 +152,10 @@ bool ConfigNode::has(const std::string& key) const {
 
 std::vector<std::string> ConfigNode::keys() const {
   std::vector<std::string> out;
-  for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+  for (const auto& kv : node_) {
+    if (!kv.first.IsScalar()) throw error(keyText(kv.first), "a key must be a name");
+    out.push_back(kv.first.Scalar());
+  }
   return out;
 }
 
@@ -179,7 +190,7 @@ ConfigError ConfigNode::missing(const std::string& key, const std::string& what)
   // A required key is most often "missing" because it is misspelt: name the culprit.
   if (node_.IsMap()) {
     for (const auto& kv : node_) {
-      const std::string other = kv.first.as<std::string>();
+      const std::string other = keyText(kv.first);
       if (other != key && !used_->count(other) && editDistance(other, key) <= 2) {
         problem += "; the unknown key '" + other + "' looks like a misspelling of it";
         break;
@@ -416,7 +427,8 @@ void ConfigNode::requireAllKeysUsed() const {
   if (!node_.IsMap()) return;
   std::vector<std::string> known(used_->begin(), used_->end());
   for (const auto& kv : node_) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = keyText(kv.first);
+    if (!kv.first.IsScalar()) throw error(key, "a key must be a name");
     if (used_->count(key)) continue;
     std::string best;
     size_t best_d = 1000;

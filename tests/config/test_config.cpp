@@ -184,6 +184,20 @@ TEST(ConfigNode, APathTheSystemRefusesIsAConfigError) {
   expectConfigError([&] { n.getPath("long"); }, "long", "not found");
 }
 
+// Found by fuzzing (tests/fuzz/fuzz_config): YAML allows a list or a
+// mapping as a key, and reading such a key as a name ended the process
+// (an uncaught yaml-cpp exception) instead of refusing the file.
+TEST(ConfigNode, AKeyThatIsNotANameIsAConfigError) {
+  const ConfigNode n = yaml("block:\n  ? [a, b]\n  : 1\n  sigma: 0.1\n");
+  const ConfigNode b = n.child("block");
+  b.getDouble("sigma");
+  expectConfigError([&] { b.requireAllKeysUsed(); }, "block.(a list as a key)",
+                    "a key must be a name");
+  expectConfigError([&] { b.keys(); }, "block.(a list as a key)", "a key must be a name");
+  // A required key missing beside it is reported as missing.
+  expectConfigError([&] { b.getDouble("sigma_rotation"); }, "block.sigma_rotation", "missing");
+}
+
 TEST(RobotConfig, ShippedRobotFileLoads) {
   const auto robot = vslam::config::RobotConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) /
                                                           "config/robot/sim_two_camera.yaml");

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "bus/log_reader.hpp"
 #include "bus/log_writer.hpp"
@@ -24,19 +25,24 @@ fs::path tempLog(const std::string& name) {
   return dir / name;
 }
 
-// An event header (lcm_eventlog format) whose data length is `claimed`,
-// followed by no data.
-void appendHeaderClaiming(const fs::path& log, int32_t claimed) {
+// An event (lcm_eventlog format) numbered `eventnum` on channel "EVIL"
+// whose header claims `claimed` data bytes, followed by `data`.
+void appendEvent(const fs::path& log, int64_t eventnum, int32_t claimed, const std::string& data) {
   std::ofstream out(log, std::ios::binary | std::ios::app);
   auto be = [&](uint64_t v, int bytes) {
     for (int i = bytes - 1; i >= 0; --i) out.put(static_cast<char>((v >> (8 * i)) & 0xff));
   };
   be(0xEDA1DA01, 4);  // sync
-  be(2, 8);           // event number
+  be(static_cast<uint64_t>(eventnum), 8);
   be(1700000000000000ULL, 8);
   be(4, 4);  // channel length
   be(static_cast<uint32_t>(claimed), 4);
-  out << "EVIL";
+  out << "EVIL" << data;
+}
+
+// An event header whose data length is `claimed`, followed by no data.
+void appendHeaderClaiming(const fs::path& log, int32_t claimed) {
+  appendEvent(log, 2, claimed, "");
 }
 
 }  // namespace
@@ -79,4 +85,22 @@ TEST(LogReader, AnEventClaimingMoreThanTheFileHoldsIsDamageNotACrash) {
   while (const lcm::LogEvent* e = skipping.next()) channels.push_back(e->channel);
   EXPECT_EQ(channels, (std::vector<std::string>{"A", "B", "C"}));
   EXPECT_GT(skipping.stats().bytes_skipped, 0);
+}
+
+// Found by fuzzing (tests/fuzz/fuzz_log, UBSan): the event numbers are the
+// file's word, and the gap between two far apart (INT64_MIN, then 21)
+// overflowed int64 counting the events lost to damage.
+TEST(LogReader, EventNumbersFarApartAreAGapNotAnOverflow) {
+  const fs::path log = tempLog("far-apart.lcmlog");
+  fs::remove(log);
+  appendEvent(log, std::numeric_limits<int64_t>::min(), 1, "a");
+  appendEvent(log, 21, 1, "b");
+  appendEvent(log, std::numeric_limits<int64_t>::max(), 1, "c");
+  appendEvent(log, std::numeric_limits<int64_t>::max(), 1, "d");  // no step: no gap
+  LogReader skipping(log, LogDamage::kSkip);
+  int events = 0;
+  while (skipping.next() != nullptr) ++events;
+  EXPECT_EQ(events, 4);
+  EXPECT_EQ(skipping.stats().events_missing, std::numeric_limits<int64_t>::max())
+      << "the gaps, added up to the most an int64 holds";
 }
