@@ -72,7 +72,8 @@ bool parseJpegHeader(const uint8_t* data, size_t size, jpeg_decompress_struct* c
 // In the scan, a warning is damage: a frame that lost part of its data
 // (a USB or network packet) decodes to gray or smeared blocks, which would
 // make features of their own. Extraneous bytes before a marker, which many
-// UVC cameras write after their data, are not.
+// UVC cameras write after their data, are not (so a loss whose remaining
+// bytes happen to decode to every block passes: it looks the same).
 void jumpOnJpegScanWarning(j_common_ptr cinfo, int level) {
   if (level < 0 && cinfo->err->msg_code != JWRN_EXTRANEOUS_DATA) jumpOnJpegError(cinfo);
 }
