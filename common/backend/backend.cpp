@@ -1,6 +1,7 @@
 #include "backend/backend.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -46,6 +47,8 @@ void MapCorrectionParams::validate() const {
     throw std::invalid_argument("backend: map_correction kidnap jump thresholds must be > 0");
   if (!(creation_max_age_s > 0))
     throw std::invalid_argument("backend: map_correction.creation_max_age_s must be > 0");
+  if (!(solve_result_after_s >= 0))
+    throw std::invalid_argument("backend: map_correction.solve_result_after_s must be >= 0");
   if (!(measurement_min_interval_s >= 0))
     throw std::invalid_argument("backend: map_correction.measurement_min_interval_s must be >= 0");
 }
@@ -222,15 +225,51 @@ void Backend::addToGraph(const MeasurementInput& m, const OdometryAt& then, bool
     newest_graph_node_filter_ = filter_then;
   }
   if (m.utime >= next_solve_utime_) {
-    correctMap();
+    correctMap(m.utime);
     next_solve_utime_ =
         m.utime + static_cast<int64_t>(params_.map_correction.solve_interval_s * 1e6);
   }
 }
 
-void Backend::correctMap() {
+Backend::~Backend() {
+  if (solving_.valid()) solving_.wait();
+}
+
+void Backend::takeSolution() {
+  if (solving_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    const auto t0 = std::chrono::steady_clock::now();
+    solving_.wait();
+    ++counters_.graph_solve_waits;
+    counters_.graph_solve_wait_ms +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  const PoseGraphSolveSummary s = solving_.get();
+  counters_.graph_last_solve_ms = s.ms;
+  if (s.solved) {
+    ++counters_.graph_solves;
+    graph_->adoptSolution(*solving_graph_);
+    applyCorrection(graph_->nodePose(solving_newest_node_), solving_newest_filter_);
+  } else {
+    ++counters_.graph_solve_failures;
+  }
+  solving_graph_.reset();
+}
+
+void Backend::correctMap(int64_t utime) {
+  const bool background = params_.map_correction.solve_in_background;
+  if (solving_.valid()) takeSolution();  // begun at the previous solve time
   if (graph_measurements_since_solve_ == 0) return;
   graph_measurements_since_solve_ = 0;
+  if (background) {
+    graph_->prune();
+    solving_graph_ = std::make_unique<PoseGraph>(*graph_);
+    solving_newest_node_ = newest_graph_node_;
+    solving_newest_filter_ = newest_graph_node_filter_;
+    solving_result_utime_ =
+        utime + static_cast<int64_t>(params_.map_correction.solve_result_after_s * 1e6);
+    solving_ = std::async(std::launch::async, [g = solving_graph_.get()] { return g->solve(); });
+    return;
+  }
   const PoseGraphSolveSummary s = graph_->solve();
   counters_.graph_last_solve_ms = s.ms;
   if (!s.solved) {
@@ -238,6 +277,10 @@ void Backend::correctMap() {
     return;
   }
   ++counters_.graph_solves;
+  applyCorrection(graph_->nodePose(newest_graph_node_), newest_graph_node_filter_);
+}
+
+void Backend::applyCorrection(const Pose2& solved_at, const Pose2& filter_at) {
   std::vector<ParticleFilter::CorrectedLandmark> landmarks;
   for (const auto& [id, pose] : graph_->landmarkPoses()) landmarks.push_back({id, pose});
   const MapCorrectionParams& mc = params_.map_correction;
@@ -245,11 +288,12 @@ void Backend::correctMap() {
   cov(0, 0) = cov(1, 1) = mc.landmark_sigma_xy_m * mc.landmark_sigma_xy_m;
   cov(2, 2) = mc.landmark_sigma_theta_rad * mc.landmark_sigma_theta_rad;
   // The particles move with the graph's correction at the newest measured
-  // pose: the graph's estimate there against the filter's.
-  const Pose2 graph_pose = graph_->nodePose(newest_graph_node_);
-  const Pose2 shift = graph_pose.compose(newest_graph_node_filter_.inverse());
+  // pose: the graph's estimate there against the filter's. The filter's
+  // estimate at the graph's newest node (newer than the solve's, when it
+  // ran in the background) moves with them.
+  const Pose2 shift = solved_at.compose(filter_at.inverse());
   filter_.correctMap(landmarks, cov, shift);
-  newest_graph_node_filter_ = graph_pose;
+  newest_graph_node_filter_ = shift.compose(newest_graph_node_filter_);
 }
 
 Observation Backend::alignedObservation(const MeasurementInput& m, const Pose2& then) const {
@@ -291,6 +335,9 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   };
   if (result.status != MeasurementStatus::kAccepted) return finish(MeasurementUse::kRejected);
   if (m.landmark_id < 0) return finish(MeasurementUse::kInvalidLandmark);
+  // (Not while kidnapped: as a solve on the update, a correction waits
+  // for the filter to know where it is.)
+  if (solving_.valid() && !filter_.kidnapped() && m.utime >= solving_result_utime_) takeSolution();
 
   MeasurementUse why = MeasurementUse::kUsed;
   const std::optional<OdometryAt> then_odometry =

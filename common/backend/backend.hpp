@@ -28,7 +28,9 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <future>
 #include <map>
+#include <memory>
 #include <optional>
 #include <unordered_map>
 
@@ -63,6 +65,14 @@ struct MapCorrectionParams {
   // The filter's landmarks take the graph's poses with this covariance.
   double landmark_sigma_xy_m = 0.02;
   double landmark_sigma_theta_rad = 0.5 * M_PI / 180;
+  // Solve off the filter's path: a solve runs on a worker thread over a copy
+  // of the graph, and the filter takes its result at the first measurement
+  // `solve_result_after_s` of robot time after the solve began (waiting for
+  // the worker if it is not done: the result is the same however fast the
+  // machine, so a replay is repeatable). false: solved on the update that
+  // triggers it, applied at once.
+  bool solve_in_background = true;
+  double solve_result_after_s = 0.2;
   PoseGraphParams graph;
 
   void validate() const;
@@ -145,11 +155,19 @@ struct BackendCounters {
   int64_t graph_solve_failures = 0;
   int64_t graph_odometry_breaks = 0;  // kidnappings (and odometry resets) that split the graph
   double graph_last_solve_ms = 0;
+  // Updates that waited for the background solve (it took longer than the
+  // solve interval of robot time: a replay faster than real time, or a graph
+  // too big for the machine), and the wall time they waited.
+  int64_t graph_solve_waits = 0;
+  double graph_solve_wait_ms = 0;
 };
 
 class Backend {
  public:
   explicit Backend(BackendParams params);
+  ~Backend();  // waits for a solve in the background
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
 
   OdometryIncrements::Outcome addOdometry(const OdometryReading& reading);
   MeasurementResult addMeasurement(const MeasurementInput& m);
@@ -185,7 +203,13 @@ class Backend {
   Observation alignedObservation(const MeasurementInput& m, const Pose2& then) const;
   // A measurement the filter found consistent (or not: then it is dropped).
   void addToGraph(const MeasurementInput& m, const OdometryAt& then, bool consistent);
-  void correctMap();
+  void correctMap(int64_t utime);  // at the measurement time `utime`
+  // The background solve's result, into the graph and the filter.
+  void takeSolution();
+  // The filter takes a solved graph's landmarks, and the correction at the
+  // newest node it had: `solved_at` (that node's pose in the solution, or
+  // the graph's) against the filter's estimate there when the solve began.
+  void applyCorrection(const Pose2& solved_at, const Pose2& filter_at);
   void joinOrBreakAfterKidnap();
   // At a relocalization: the landmarks first seen while kidnapped, from
   // their newest measurement moved to now by the odometry since.
@@ -213,6 +237,13 @@ class Backend {
   std::unordered_map<int64_t, int64_t> graph_last_used_;  // landmark id -> utime in the graph
   int newest_graph_node_ = -1;      // the newest measurement's node in the graph...
   Pose2 newest_graph_node_filter_;  // ...and the filter's estimate there
+  // The solve in the background (solve_in_background): the copy it works on
+  // and the newest node with the filter's estimate when it began.
+  std::unique_ptr<PoseGraph> solving_graph_;
+  std::future<PoseGraphSolveSummary> solving_;
+  int solving_newest_node_ = -1;
+  Pose2 solving_newest_filter_;
+  int64_t solving_result_utime_ = 0;  // its result is taken at this measurement time
   std::unordered_map<int64_t, int64_t>
       last_used_;  // landmark id -> utime of its last used measurement
   BackendCounters counters_;

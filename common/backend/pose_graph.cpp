@@ -96,6 +96,8 @@ void PoseGraphParams::validate() const {
   if (min_agreeing < 0) bad("min_agreeing");
   if (!(segment_prior_sigma_xy_m > 0)) bad("segment_prior_sigma_xy_m");
   if (!(segment_prior_sigma_theta_rad > 0)) bad("segment_prior_sigma_theta_rad");
+  if (recent_nodes < 2) bad("recent_nodes");
+  if (old_measurements_per_landmark < 0) bad("old_measurements_per_landmark");
 }
 
 PoseGraph::PoseGraph(PoseGraphParams params) : params_((params.validate(), params)) {}
@@ -135,16 +137,101 @@ int PoseGraph::addNode(int64_t utime, const OdometryAt& odometry, const Pose2& g
   }
   setPose(n.x, start);
   n.guess = start;
-  const int id = static_cast<int>(nodes_.size());
-  nodes_.push_back(n);
+  n.alive = true;
+  int id = 0;
+  if (free_ids_.empty()) {
+    id = static_cast<int>(nodes_.size());
+    nodes_.push_back(n);
+  } else {
+    id = free_ids_.back();
+    free_ids_.pop_back();
+    nodes_[static_cast<size_t>(id)] = n;
+  }
   by_time_.emplace(key, id);
   return id;
 }
 
+void PoseGraph::prune() {
+  if (by_time_.size() <= static_cast<size_t>(params_.recent_nodes)) return;
+  // Nodes before `cutoff` (in (segment, time) order, which is time order)
+  // are old.
+  auto cutoff = by_time_.end();
+  std::advance(cutoff, -params_.recent_nodes);
+  const std::pair<int, int64_t> old_before = cutoff->first;
+  auto isOld = [&](int node) {
+    const Node& n = nodes_[static_cast<size_t>(node)];
+    return std::make_pair(n.segment, n.utime) < old_before;
+  };
+
+  // Of each landmark's old measurements, ones spread over its history stay:
+  // measurements of one pass are correlated (one stretch of odometry), those
+  // of different passes are not. The measurement whose neighbours in time
+  // are closest goes first; the oldest and the newest stay.
+  std::unordered_map<int64_t, std::vector<size_t>> old_by_landmark;
+  for (size_t i = 0; i < measurements_.size(); ++i)
+    if (isOld(measurements_[i].node)) old_by_landmark[measurements_[i].landmark_id].push_back(i);
+  std::vector<char> drop(measurements_.size(), 0);
+  const auto keep = static_cast<size_t>(params_.old_measurements_per_landmark);
+  auto timeOf = [&](size_t m) { return nodes_[static_cast<size_t>(measurements_[m].node)].utime; };
+  for (auto& [id, indices] : old_by_landmark) {
+    if (indices.size() <= keep) continue;
+    std::sort(indices.begin(), indices.end(),
+              [&](size_t a, size_t b) { return timeOf(a) < timeOf(b); });
+    if (keep < 2) {
+      for (size_t k = 0; k + keep < indices.size(); ++k) drop[indices[k]] = 1;
+      continue;
+    }
+    while (indices.size() > keep) {
+      size_t worst = 1;
+      int64_t narrowest = std::numeric_limits<int64_t>::max();
+      for (size_t k = 1; k + 1 < indices.size(); ++k) {
+        const int64_t span = timeOf(indices[k + 1]) - timeOf(indices[k - 1]);
+        if (span < narrowest) narrowest = span, worst = k;
+      }
+      drop[indices[worst]] = 1;
+      indices.erase(indices.begin() + static_cast<std::ptrdiff_t>(worst));
+    }
+  }
+  std::vector<char> measured(nodes_.size(), 0);
+  size_t kept = 0;
+  for (size_t i = 0; i < measurements_.size(); ++i) {
+    if (drop[i]) continue;
+    measured[static_cast<size_t>(measurements_[i].node)] = 1;
+    measurements_[kept++] = measurements_[i];
+  }
+  measurements_removed_ += static_cast<int64_t>(measurements_.size() - kept);
+  measurements_.resize(kept);
+
+  // Old nodes with nothing left on them go; the odometry edge is then
+  // between their neighbours. A segment's first node carries the segment's
+  // prior: the next node inherits it, moved by the odometry between them.
+  const auto origin = by_time_.begin();
+  for (auto it = std::next(origin); it != cutoff;) {
+    const int id = it->second;
+    Node& n = nodes_[static_cast<size_t>(id)];
+    if (n.landmarks > 0 || measured[static_cast<size_t>(id)]) {
+      ++it;
+      continue;
+    }
+    const bool first_of_segment = std::prev(it)->first.first != n.segment;
+    const auto next = std::next(it);
+    if (first_of_segment && next != by_time_.end() && next->first.first == n.segment) {
+      Node& successor = nodes_[static_cast<size_t>(next->second)];
+      successor.guess = n.guess.compose(n.odometry.pose.between(successor.odometry.pose));
+    }
+    n.alive = false;
+    free_ids_.push_back(id);
+    ++nodes_removed_;
+    it = by_time_.erase(it);
+  }
+}
+
 void PoseGraph::addLandmark(int64_t landmark_id, int node) {
-  if (node < 0 || static_cast<size_t>(node) >= nodes_.size())
+  if (node < 0 || static_cast<size_t>(node) >= nodes_.size() ||
+      !nodes_[static_cast<size_t>(node)].alive)
     throw std::invalid_argument("pose graph: landmark at an unknown node");
-  landmarks_.emplace(landmark_id, Landmark{node});
+  if (landmarks_.emplace(landmark_id, Landmark{node}).second)
+    ++nodes_[static_cast<size_t>(node)].landmarks;
 }
 
 PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(const OdometryAt& a,
@@ -159,7 +246,8 @@ PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(const OdometryAt& a,
 
 bool PoseGraph::addMeasurement(int64_t landmark_id, int node, const Pose2& y) {
   const auto it = landmarks_.find(landmark_id);
-  if (it == landmarks_.end() || node < 0 || static_cast<size_t>(node) >= nodes_.size())
+  if (it == landmarks_.end() || node < 0 || static_cast<size_t>(node) >= nodes_.size() ||
+      !nodes_[static_cast<size_t>(node)].alive)
     return false;
   if (!y.isFinite() || std::hypot(y.x, y.y) > params_.max_measurement_distance_m) return false;
   Landmark& l = it->second;
@@ -205,8 +293,9 @@ size_t PoseGraph::numDistrustedLandmarks() const {
 
 PoseGraphSolveSummary PoseGraph::solve() {
   PoseGraphSolveSummary summary;
-  if (nodes_.size() < 2) return summary;
+  if (by_time_.size() < 2) return summary;
   const auto t0 = std::chrono::steady_clock::now();
+  prune();
   ceres::Problem::Options problem_options;
   problem_options.enable_fast_removal = false;
   ceres::Problem problem(problem_options);
@@ -266,8 +355,28 @@ PoseGraphSolveSummary PoseGraph::solve() {
   summary.final_cost = s.final_cost;
   summary.ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  for (Node& n : nodes_) n.x[2] = wrapAngle(n.x[2]);
+  for (const auto& [key, id] : by_time_) {
+    double* x = nodes_[static_cast<size_t>(id)].x;
+    x[2] = wrapAngle(x[2]);
+  }
   return summary;
+}
+
+void PoseGraph::adoptSolution(const PoseGraph& solved) {
+  const Node* prev = nullptr;
+  for (const auto& [key, id] : by_time_) {
+    Node& n = nodes_[static_cast<size_t>(id)];
+    const auto i = static_cast<size_t>(id);
+    const bool in_copy = i < solved.nodes_.size() && solved.nodes_[i].alive &&
+                         solved.nodes_[i].utime == n.utime && solved.nodes_[i].segment == n.segment;
+    if (in_copy) {
+      std::copy(solved.nodes_[i].x, solved.nodes_[i].x + 3, n.x);
+    } else if (prev != nullptr && prev->segment == n.segment) {
+      setPose(n.x, Pose2{prev->x[0], prev->x[1], prev->x[2]}.compose(
+                       prev->odometry.pose.between(n.odometry.pose)));
+    }
+    prev = &n;
+  }
 }
 
 Pose2 PoseGraph::nodePose(int node) const {

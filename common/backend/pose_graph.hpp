@@ -27,6 +27,20 @@
 // The residual of an edge a -> b with relative pose z is
 //   e = (x_a (+) z)^-1 (+) x_b,
 // whitened by the edge's standard deviations.
+//
+// Bounded size: a robot driving for hours in one home measures the same
+// landmarks over and over, and a graph keeping every measurement's node
+// grows with the run (a solve at 4,461 nodes took 46 ms). Before each
+// solve, the newest `recent_nodes` nodes keep all their measurements; of
+// the older measurements each landmark keeps `old_measurements_per_landmark`
+// spread over its history (one pass's measurements share one stretch of
+// odometry; different passes' do not). An older node left with no measurement
+// and no landmark is removed: its odometry edges are replaced by one
+// between its neighbours, which the motion model gives over the path driven
+// between them (exact for the odometry; what is lost is the dropped
+// measurements' information, which repeated laps have made redundant). The
+// graph then holds at most 1 + recent_nodes + landmarks x (1 +
+// old_measurements_per_landmark) nodes: bounded by the map, not by the run.
 
 #include <cmath>
 #include <cstdint>
@@ -79,6 +93,10 @@ struct PoseGraphParams {
   // Prior of the first node of a segment other than the first.
   double segment_prior_sigma_xy_m = 0.5;
   double segment_prior_sigma_theta_rad = 10 * M_PI / 180;
+  // Bounded size (above): nodes kept whole, and older measurements kept per
+  // landmark.
+  int recent_nodes = 1000;
+  int old_measurements_per_landmark = 20;
 
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
@@ -120,7 +138,18 @@ class PoseGraph {
   // adds nothing) for an unknown landmark or beyond max_measurement_distance_m.
   bool addMeasurement(int64_t landmark_id, int node, const Pose2& y);
 
+  // Prunes (bounded size, above), then solves.
   PoseGraphSolveSummary solve();
+  // The pruning alone (solve() does it first). Node ids of removed nodes are
+  // reused by later addNode calls; a landmark's creation node, the origin
+  // and the newest recent_nodes nodes are never removed.
+  void prune();
+  // Takes the poses of `solved`, a copy of this graph solved (off the
+  // filter's path, Backend) while this one took new nodes: the nodes of the
+  // copy get its poses, and the nodes added since start where the odometry
+  // from their predecessor (now moved) puts them, as addNode does. The copy
+  // must have been made after this graph's last prune().
+  void adoptSolution(const PoseGraph& solved);
 
   Pose2 nodePose(int node) const;
   int64_t nodeTime(int node) const { return nodes_.at(static_cast<size_t>(node)).utime; }
@@ -130,7 +159,9 @@ class PoseGraph {
   std::optional<Pose2> landmarkPose(int64_t landmark_id) const;
   // Landmark ids in increasing order, with their current poses.
   std::vector<std::pair<int64_t, Pose2>> landmarkPoses() const;
-  size_t numNodes() const { return nodes_.size(); }
+  size_t numNodes() const { return by_time_.size(); }
+  int64_t numNodesRemoved() const { return nodes_removed_; }
+  int64_t numMeasurementsRemoved() const { return measurements_removed_; }
   size_t numLandmarks() const { return landmarks_.size(); }
   size_t numMeasurements() const { return measurements_.size(); }
   // Landmarks whose edges a solve would leave out now (odometry_gate_*):
@@ -154,6 +185,8 @@ class PoseGraph {
     OdometryAt odometry;
     double x[3] = {0, 0, 0};  // estimate: x, y, theta (Ceres parameter block)
     Pose2 guess;              // for a segment's first node: its prior
+    int landmarks = 0;        // created at this node
+    bool alive = false;
   };
   struct Measurement {
     int64_t landmark_id;
@@ -175,7 +208,9 @@ class PoseGraph {
   OdometrySigmas odometrySigmas(const OdometryAt& a, const OdometryAt& b) const;
 
   PoseGraphParams params_;
-  std::vector<Node> nodes_;
+  std::vector<Node> nodes_;  // by id; removed ones (alive false) are reused
+  std::vector<int> free_ids_;
+  int64_t nodes_removed_ = 0, measurements_removed_ = 0;
   int segmentAt(int64_t utime) const;
 
   std::map<std::pair<int, int64_t>, int> by_time_;  // (segment, utime) -> node

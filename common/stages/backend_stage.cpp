@@ -139,6 +139,12 @@ ParamTable<backend::MapCorrectionParams> mapCorrectionTable() {
   t.add("enabled", &M::enabled, "the pose graph of docs/backend.md, Map correction")
       .add("solve_interval_s", &M::solve_interval_s, InRange{0, 3600}, "s",
            "robot time between solves (each needs a new measurement in the graph)")
+      .add("solve_in_background", &M::solve_in_background,
+           "solve on a worker thread, the result taken solve_result_after_s later (repeatable); "
+           "false: on the update that triggers it")
+      .add("solve_result_after_s", &M::solve_result_after_s, InRange{0, 3600}, "s",
+           "in the background: the filter takes a solve's result at the first measurement this "
+           "long after the solve began (waiting for it if need be)")
       .add("max_outlier_fraction", &M::max_outlier_fraction, InRange{0, 1}, "",
            "a measurement enters if at most this fraction of the particles gates it out")
       .add("measurement_min_interval_s", &M::measurement_min_interval_s, InRange{0, 3600}, "s",
@@ -205,7 +211,18 @@ ParamTable<backend::MapCorrectionParams> mapCorrectionTable() {
       .degrees(
           "segment_prior_sigma_theta_deg",
           [](auto& m) -> auto& { return m.graph.segment_prior_sigma_theta_rad; },
-          InRange{1e-3, 180}, "...and θ");
+          InRange{1e-3, 180}, "...and θ")
+      .add(
+          "recent_nodes", [](auto& m) -> auto& { return m.graph.recent_nodes; },
+          InRange{2, 1000000}, "",
+          "the newest nodes keep all their measurements (the graph's size is bounded by the map: "
+          "docs/backend.md)")
+      .add(
+          "old_measurements_per_landmark",
+          [](auto& m) -> auto& { return m.graph.old_measurements_per_landmark; },
+          InRange{0, 1000000}, "",
+          "of older measurements each landmark keeps this many, spread over its history; older "
+          "nodes left with none go");
   return t;
 }
 
@@ -705,6 +722,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("update_ms_max", period_max_update_ms_, "ms");
   if (const backend::PoseGraph* g = backend_.poseGraph()) {
     report.add("graph_nodes", static_cast<double>(g->numNodes()), "count");
+    report.add("graph_nodes_removed", static_cast<double>(g->numNodesRemoved()), "count");
+    report.add("graph_edges_measurement", static_cast<double>(g->numMeasurements()), "count");
     report.add("graph_landmarks", static_cast<double>(c.landmarks_in_graph), "count");
     report.add("graph_landmark_creations_unused", static_cast<double>(c.landmark_creations_unused),
                "count");
@@ -715,6 +734,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     report.add("graph_solve_failures", static_cast<double>(c.graph_solve_failures), "count");
     report.add("graph_odometry_breaks", static_cast<double>(c.graph_odometry_breaks), "count");
     report.add("graph_solve_ms", c.graph_last_solve_ms, "ms");
+    report.add("graph_solve_waits", static_cast<double>(c.graph_solve_waits), "count");
+    report.add("graph_solve_wait_ms", c.graph_solve_wait_ms, "ms");
   }
   if (e.kidnapped) report.warn("kidnapping suspected: relocalizing from visual measurements");
   if (odometry_watchdog_) odometry_watchdog_->report(ctx_->clock.now(), report);
