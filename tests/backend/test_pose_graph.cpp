@@ -35,6 +35,31 @@ std::vector<OdometryAt> odometryStates(const test::SyntheticWorld& world) {
   return out;
 }
 
+// The world's landmarks and measurements into the graph tick by tick, solved
+// every 5 s as the back-end does; returns the most nodes it held.
+size_t feedGraph(const test::SyntheticWorld& world, PoseGraph& graph) {
+  const std::vector<OdometryAt> odo = odometryStates(world);
+  graph.addNode(world.utime(0), odo[0], Pose2{});
+  size_t next_landmark = 0, next_measurement = 0, most_nodes = 0;
+  const auto& meas = world.measurements();
+  for (size_t t = 1; t < odo.size(); ++t) {
+    while (next_landmark < world.landmarks().size() && world.landmarks()[next_landmark].tick == t) {
+      const auto& l = world.landmarks()[next_landmark++];
+      graph.addLandmark(l.id, graph.addNode(world.utime(t), odo[t], Pose2{}));
+    }
+    while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
+      const auto& m = meas[next_measurement++];
+      // (A measurement in the creation tick itself is refused: it says nothing.)
+      graph.addMeasurement(m.landmark_id, graph.addNode(world.utime(t), odo[t], {}), m.y);
+    }
+    most_nodes = std::max(most_nodes, graph.numNodes());
+    if (t % 250 == 0) {
+      EXPECT_TRUE(graph.solve().solved);
+    }
+  }
+  return most_nodes;
+}
+
 PoseGraphParams syntheticGraphParams() {
   PoseGraphParams p;
   p.measurement_sigma_xy_m = 0.03;  // the synthetic measurement noise
@@ -56,24 +81,9 @@ TEST(PoseGraph, RecoversTheLandmarksOfANoisyLoop) {
   test::SyntheticWorld world(sp);
   world.build(2.0);
   const std::vector<OdometryAt> odo = odometryStates(world);
-  PoseGraph graph(syntheticGraphParams());
-  graph.addNode(world.utime(0), odo[0], Pose2{});
-  size_t next_landmark = 0, next_measurement = 0;
   const auto& meas = world.measurements();
-  for (size_t t = 1; t < odo.size(); ++t) {
-    while (next_landmark < world.landmarks().size() && world.landmarks()[next_landmark].tick == t) {
-      const auto& l = world.landmarks()[next_landmark++];
-      graph.addLandmark(l.id, graph.addNode(world.utime(t), odo[t], Pose2{}));
-    }
-    while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
-      const auto& m = meas[next_measurement++];
-      // (A measurement in the creation tick itself is refused: it says nothing.)
-      graph.addMeasurement(m.landmark_id, graph.addNode(world.utime(t), odo[t], {}), m.y);
-    }
-    if (t % 250 == 0) {
-      ASSERT_TRUE(graph.solve().solved);  // every 5 s
-    }
-  }
+  PoseGraph graph(syntheticGraphParams());
+  feedGraph(world, graph);
   const PoseGraphSolveSummary s = graph.solve();
   ASSERT_TRUE(s.solved);
   EXPECT_LE(s.final_cost, s.initial_cost);
@@ -108,26 +118,9 @@ LongRun driveLaps(double laps, const PoseGraphParams& params) {
   sp.seed = 23;
   test::SyntheticWorld world(sp);
   world.build(laps);
-  const std::vector<OdometryAt> odo = odometryStates(world);
   PoseGraph graph(params);
-  graph.addNode(world.utime(0), odo[0], Pose2{});
-  size_t next_landmark = 0, next_measurement = 0;
-  const auto& meas = world.measurements();
   LongRun run;
-  for (size_t t = 1; t < odo.size(); ++t) {
-    while (next_landmark < world.landmarks().size() && world.landmarks()[next_landmark].tick == t) {
-      const auto& l = world.landmarks()[next_landmark++];
-      graph.addLandmark(l.id, graph.addNode(world.utime(t), odo[t], Pose2{}));
-    }
-    while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
-      const auto& m = meas[next_measurement++];
-      graph.addMeasurement(m.landmark_id, graph.addNode(world.utime(t), odo[t], {}), m.y);
-    }
-    run.most_nodes = std::max(run.most_nodes, graph.numNodes());
-    if (t % 250 == 0) {
-      EXPECT_TRUE(graph.solve().solved);
-    }
-  }
+  run.most_nodes = feedGraph(world, graph);
   EXPECT_TRUE(graph.solve().solved);
   for (const auto& l : world.landmarks())
     run.graph_worst_m =
