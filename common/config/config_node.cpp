@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -161,6 +162,11 @@ std::vector<std::string> ConfigNode::keys() const {
 
 void ConfigNode::markUsed(const std::string& key) const { used_->insert(key); }
 
+void ConfigNode::set(const std::string& key, const std::string& value) const {
+  YAML::Node handle = node_;  // shares the document's node
+  handle[key] = value;
+}
+
 ConfigNode ConfigNode::child(const std::string& key) const {
   markUsed(key);
   if (!has(key)) throw missing(key, "a mapping");
@@ -263,9 +269,35 @@ std::string ConfigNode::getEnum(const std::string& key,
   return n.Scalar();
 }
 
+std::filesystem::path expandUserPath(const std::string& path) {
+  const auto home = [](const std::string& what) {
+    const char* h = std::getenv("HOME");
+    if (h == nullptr || *h != '/') {
+      throw std::runtime_error(what + " needs $HOME, which is not set to an absolute path");
+    }
+    return std::filesystem::path(h);
+  };
+  if (path == "~" || path.rfind("~/", 0) == 0)
+    return home("'~'") / path.substr(std::min<size_t>(2, path.size()));
+  static const std::string kData = "$XDG_DATA_HOME";
+  if (path == kData || path.rfind(kData + "/", 0) == 0) {
+    // XDG base directories: a relative value is invalid and ignored.
+    const char* x = std::getenv("XDG_DATA_HOME");
+    const std::filesystem::path data =
+        x != nullptr && *x == '/' ? std::filesystem::path(x) : home(kData) / ".local/share";
+    return path.size() > kData.size() + 1 ? data / path.substr(kData.size() + 1) : data;
+  }
+  return path;
+}
+
 std::filesystem::path ConfigNode::getPath(const std::string& key, bool must_exist) const {
   const std::string raw = getString(key);
-  std::filesystem::path p(raw);
+  std::filesystem::path p;
+  try {
+    p = expandUserPath(raw);
+  } catch (const std::runtime_error& e) {
+    throw error(key, e.what());
+  }
   if (p.is_relative()) p = doc_->base_dir / p;
   p = p.lexically_normal();
   // The error_code form: a name the system refuses (too long, a bad

@@ -48,6 +48,14 @@ std::string rangeText(const InRange& range);
 inline InRange positive() { return {std::numeric_limits<double>::min(), InRange{}.max}; }
 inline InRange nonNegative() { return {0.0, InRange{}.max}; }
 
+// A path as a config may write it: a leading "~/" is the home directory and a
+// leading "$XDG_DATA_HOME/" the user's data folder (that variable when it is
+// an absolute path, else ~/.local/share, as the XDG base directory spec
+// says), so that what the live stack writes stays out of the checkout.
+// Anything else is returned as it is. std::runtime_error when $HOME is
+// needed and not set.
+std::filesystem::path expandUserPath(const std::string& path);
+
 // A value a parameter struct read, as printed at start-up.
 struct ResolvedValue {
   std::string key;    // full key path, e.g. processes.deadreckon.sigma_rotation
@@ -85,7 +93,8 @@ class ConfigNode {
   // One of a fixed set of words.
   std::string getEnum(const std::string& key, const std::vector<std::string>& allowed) const;
   // A path, resolved relative to the directory of the file it appears in
-  // (never an absolute path in shipped configs); must exist if must_exist.
+  // (never an absolute path in shipped configs) after expandUserPath; must
+  // exist if must_exist.
   std::filesystem::path getPath(const std::string& key, bool must_exist = true) const;
   // An LCM channel name: UPPER_SNAKE_CASE.
   std::string getChannel(const std::string& key) const;
@@ -107,6 +116,10 @@ class ConfigNode {
   std::string getString(const std::string& key, const char* fallback) const {
     return getString(key, std::string(fallback));
   }
+
+  // Sets the scalar `key` of this mapping, in the document itself, to `value`:
+  // a command-line option that overrides the file (vslam-replay --map).
+  void set(const std::string& key, const std::string& value) const;
 
   // Marks a key as read without reading it (e.g. handled by another layer).
   void markUsed(const std::string& key) const;

@@ -81,9 +81,10 @@ const config::ParamTable<LandmarkDbParams>& LandmarkDbParams::table() {
   static const config::ParamTable<P> declared = [] {
     config::ParamTable<P> t;
     t.path("map_file", &P::map_file, false,
-           "the map file, relative to the config file (`\"\"`: in memory, nothing persists); "
-           "created if missing; a foreign or damaged file stops the process (exit 1) and is left "
-           "untouched")
+           "the map file, relative to the config file or under `$XDG_DATA_HOME/` or `~/` "
+           "(`\"\"`: in memory, nothing persists); created if missing; a foreign or damaged file "
+           "stops the process (exit 1) and is left untouched; `vslam-replay` uses a fresh map in "
+           "memory unless `--map FILE`")
         .required()
         .add("summary_period_s", &P::summary_period_s, InRange{0.05, 3600}, "s",
              "LANDMARK_SUMMARY period")

@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <regex>
 #include <stdexcept>
@@ -43,6 +44,37 @@ std::vector<std::string> chooseInstances(const config::StackConfig& stack,
   return instances;
 }
 
+// A replay starts from fresh maps, in memory, unless the user names a file:
+// a map file named in the stack config is the live robot's, and loading it
+// would make a replay depend on every run before it (and write into it).
+// Named, a map file is continued if it exists, created if not, and kept; the
+// back-end's `map_prior_file: landmark_db` reads the landmark map named here.
+void chooseMaps(const config::StackConfig& stack, const std::string& landmark_map,
+                const std::string& appearance_map) {
+  const auto absolute = [](const std::string& f) {
+    return f.empty() ? f : std::filesystem::absolute(f).lexically_normal().string();
+  };
+  for (const auto& inst : stack.instances()) {
+    const config::ConfigNode block = stack.process(inst);
+    const std::string role = stack.roleOf(inst);
+    if (role == "landmark_db") {
+      block.set("map_file", absolute(landmark_map));
+      log::info("landmark map of ", inst, ": ",
+                landmark_map.empty() ? "fresh, in memory (--map FILE to keep one)"
+                                     : absolute(landmark_map));
+    } else if (role == "appearance") {
+      block.set("map_file", absolute(appearance_map));
+      if (!appearance_map.empty()) {
+        block.set("map_load", "true");
+        block.set("map_save", "true");
+      }
+      log::info("appearance map of ", inst, ": ",
+                appearance_map.empty() ? "fresh, in memory (--appearance-map FILE to keep one)"
+                                       : absolute(appearance_map));
+    }
+  }
+}
+
 }  // namespace
 
 int runReplayCli(const std::vector<std::string>& args) {
@@ -73,6 +105,14 @@ int runReplayCli(const std::vector<std::string>& args) {
           return "not a regular expression: " + std::string(e.what());
         }
       });
+  std::string landmark_map, appearance_map;
+  app.add_option(
+      "--map", landmark_map,
+      "the landmark map file to continue (created if missing, kept); default: a fresh "
+      "map in memory, whatever the config names, so that replays of a log are identical");
+  app.add_option("--appearance-map", appearance_map,
+                 "the appearance map file to continue (created if missing, kept); default: a fresh "
+                 "map in memory");
   app.add_flag("!--no-inputs", options.keep_inputs, "write only what the stages publish");
   app.add_flag("--keep-health", options.keep_health,
                "also write health messages (wall-clock timing: not deterministic)");
@@ -105,10 +145,12 @@ int runReplayCli(const std::vector<std::string>& args) {
   if (code) return *code;
   options.input = input;
   options.output = output;
+  options.show_progress = true;
   config_file = config::resolveStackConfig(config_file);
 
   try {
     const auto stack = config::StackConfig::loadFile(config_file);
+    chooseMaps(stack, landmark_map, appearance_map);
     options.health_channel = stack.robot.channels.health;
     options.health_period_s = stack.health_period_s;
     bus::LockstepReplay replay(options);

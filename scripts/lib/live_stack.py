@@ -46,7 +46,7 @@ def write_config(path, map_file, scenario_file, speed, duration):
     text = open(os.path.join(ROOT, "config/vslam.yaml")).read()
     subs = [
         (r"^robot: robot/", f"robot: {ROOT}/config/robot/"),
-        (r"map_file: \.\./out/maps/landmarks\.vslam-map", f"map_file: {map_file}"),
+        (r"map_file: \$XDG_DATA_HOME/vslam/landmarks\.vslam-map", f"map_file: {map_file}"),
         (r"^    scenario: apartment .*$", f"    scenario: {scenario_file}"),
         (r"^    speed: 1\.0 .*$", f"    speed: {speed}"),
         (r"^    duration: 0 .*$", f"    duration: {duration}"),

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -175,6 +176,33 @@ TEST(ConfigNode, PathsResolveRelativeToTheFile) {
   EXPECT_EQ(n.getPath("data"), (dir / "sub" / "data.txt").lexically_normal());
   expectConfigError([&] { n.getPath("missing"); }, "missing", "not found");
   fs::remove_all(dir);
+}
+
+// The live stack's maps go to the user's data folder, out of the checkout:
+// "$XDG_DATA_HOME/" follows the XDG base directory spec (the variable when
+// absolute, else ~/.local/share) and "~/" is the home directory.
+TEST(ConfigNode, PathsMayStartInTheUsersDataFolderOrHome) {
+  const std::string saved_home = std::getenv("HOME") ? std::getenv("HOME") : "";
+  const char* saved_xdg_env = std::getenv("XDG_DATA_HOME");
+  const std::string saved_xdg = saved_xdg_env ? saved_xdg_env : "";
+  const ConfigNode n =
+      yaml("map: $XDG_DATA_HOME/vslam/m.db\nmine: ~/maps/m.db\nplain: $HOME/m.db\n");
+  setenv("HOME", "/home/robot", 1);
+  setenv("XDG_DATA_HOME", "/data/xdg", 1);
+  EXPECT_EQ(n.getPath("map", false), fs::path("/data/xdg/vslam/m.db"));
+  EXPECT_EQ(n.getPath("mine", false), fs::path("/home/robot/maps/m.db"));
+  setenv("XDG_DATA_HOME", "relative/dir", 1);  // invalid per the spec: ignored
+  EXPECT_EQ(n.getPath("map", false), fs::path("/home/robot/.local/share/vslam/m.db"));
+  unsetenv("XDG_DATA_HOME");
+  EXPECT_EQ(n.getPath("map", false), fs::path("/home/robot/.local/share/vslam/m.db"));
+  // Only these two prefixes: anything else is a name relative to the file.
+  EXPECT_EQ(n.getPath("plain", false).filename(), "m.db");
+  EXPECT_NE(n.getPath("plain", false).string().find("$HOME"), std::string::npos);
+  unsetenv("HOME");
+  expectConfigError([&] { n.getPath("mine", false); }, "mine", "needs $HOME");
+  expectConfigError([&] { n.getPath("map", false); }, "map", "needs $HOME");
+  setenv("HOME", saved_home.c_str(), 1);
+  if (saved_xdg_env) setenv("XDG_DATA_HOME", saved_xdg.c_str(), 1);
 }
 
 // Found by fuzzing (tests/fuzz/fuzz_config): a name the system refuses

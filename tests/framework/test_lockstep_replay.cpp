@@ -247,18 +247,8 @@ TEST_F(LockstepReplayTest, DamagedEventInTheMiddleIsSkippedAndCounted) {
 
 TEST_F(LockstepReplayTest, ReplayProgramIsDeterministicAndReportsBadLogs) {
   const std::string bin = std::string(VSLAM_BIN_DIR) + "/vslam-replay";
-  // The stack's config with the landmark map in memory: a map file would
-  // carry the first run's landmarks into the second.
-  std::string text = vslam::test::readFileBytes(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
-  const auto replaceOnce = [&text](const std::string& from, const std::string& to) {
-    const size_t at = text.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    text.replace(at, from.size(), to);
-  };
-  replaceOnce("robot: robot/", "robot: " + std::string(VSLAM_SOURCE_DIR) + "/config/robot/");
-  replaceOnce("map_file: ../out/maps/landmarks.vslam-map", "map_file: \"\"");
-  const std::string cfg = (dir_ / "vslam.yaml").string();
-  std::ofstream(cfg) << text;
+  // The shipped config: a replay keeps its landmark map in memory.
+  const std::string cfg = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
   std::string log1, log2;
   ASSERT_EQ(runCommand(bin + " " + input_.string() + " --config " + cfg + " --out " +
                            (dir_ / "r1.lcmlog").string(),
@@ -302,8 +292,7 @@ TEST_F(LockstepReplayTest, DefaultReplayLeavesOutStagesOfAnAbsentCamera) {
   std::string text = vslam::test::readFileBytes(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
   for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
            {"robot: robot/sim_two_camera.yaml",
-            "robot: " + std::string(VSLAM_SOURCE_DIR) + "/config/robot/one_camera.yaml"},
-           {"map_file: ../out/maps/landmarks.vslam-map", "map_file: \"\""}}) {
+            "robot: " + std::string(VSLAM_SOURCE_DIR) + "/config/robot/one_camera.yaml"}}) {
     const size_t at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;
     text.replace(at, from.size(), to);
@@ -321,6 +310,53 @@ TEST_F(LockstepReplayTest, DefaultReplayLeavesOutStagesOfAnAbsentCamera) {
   EXPECT_NE(log.find("stage frontend_forward"), std::string::npos) << log;
   EXPECT_NE(log.find("stage backend"), std::string::npos) << log;
   EXPECT_EQ(log.find("stage frontend_backward"), std::string::npos) << log;
+}
+
+// Replays are isolated: with the shipped config, whose landmark map lives in
+// the user's data folder, two replays of one rendered log are byte-identical
+// and nothing is written there. A map only carries over when named: the
+// second replay on a --map file starts from the first one's landmarks.
+TEST(ReplayIsolation, TwoReplaysOfALogAreIdenticalAndAMapCarriesOverOnlyWhenNamed) {
+  const fs::path dir = vslam::test::scratchDir("replay_isolation");
+  const std::string bin(VSLAM_BIN_DIR);
+  const std::string cfg = std::string(VSLAM_SOURCE_DIR) + "/config/vslam.yaml";
+  const fs::path data = dir / "data";  // $XDG_DATA_HOME: the live stack's map would go here
+  const std::string env = "env XDG_DATA_HOME=" + data.string() + " ";
+  std::string out;
+  ASSERT_EQ(
+      runCommand(env + bin + "/vslam-sim --config " + cfg +
+                     " --scenario apartment --duration 15 --out " + (dir / "sim.lcmlog").string(),
+                 &out),
+      0)
+      << out;
+  const auto replay = [&](const std::string& name, const std::string& options) {
+    std::string log;
+    EXPECT_EQ(runCommand(env + bin + "/vslam-replay " + (dir / "sim.lcmlog").string() +
+                             " --config " + cfg + " --out " + (dir / name).string() + " " + options,
+                         &log),
+              0)
+        << log;
+    return log;
+  };
+  const std::string first = replay("r1.lcmlog", "");
+  EXPECT_NE(first.find("fresh, in memory"), std::string::npos) << first;
+  replay("r2.lcmlog", "");
+  const std::string a = vslam::test::readFileBytes(dir / "r1.lcmlog");
+  EXPECT_TRUE(a == vslam::test::readFileBytes(dir / "r2.lcmlog")) << "two replays differ";
+  int landmark_updates = 0;
+  for (const auto& e : readLog(dir / "r1.lcmlog"))
+    landmark_updates += e.channel == "LANDMARK_UPDATE";
+  EXPECT_GT(landmark_updates, 0) << "no landmark in 15 s: the replays compared nothing";
+  EXPECT_FALSE(fs::exists(data)) << "a replay wrote into the user's data folder";
+
+  const fs::path map = dir / "named.vslam-map";
+  replay("m1.lcmlog", "--map " + map.string());
+  ASSERT_TRUE(fs::exists(map));
+  const std::string again = replay("m2.lcmlog", "--map " + map.string());
+  EXPECT_EQ(again.find(", 0 landmarks stored"), std::string::npos) << again;
+  EXPECT_NE(again.find(" landmarks stored"), std::string::npos) << again;
+  EXPECT_FALSE(fs::exists(data));
+  fs::remove_all(dir);
 }
 
 // --print-config lists what the process read: its own block and the stack

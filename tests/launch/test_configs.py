@@ -49,7 +49,7 @@ def main():
         block = want["processes"][f"camera_{cam}"]
         block["source"] = f"video:../out/video-robot/{cam}.avi"
         block["speed"] = 1.0
-    want["processes"]["landmark_db"]["map_file"] = "../out/video-robot/landmarks.vslam-map"
+    want["processes"]["landmark_db"]["map_file"] = "$XDG_DATA_HOME/vslam/video-robot.vslam-map"
     expect_same("vslam-video-robot.yaml", video, want)
     expect_same("vslam-video-robot.yaml processes", video["processes"], want["processes"])
 
