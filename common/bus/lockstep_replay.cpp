@@ -1,12 +1,15 @@
 #include "bus/lockstep_replay.hpp"
 
+#include <cstdio>
 #include <deque>
+#include <filesystem>
 #include <optional>
 #include <set>
 #include <stdexcept>
 
 #include "bus/log_reader.hpp"
 #include "util/log.hpp"
+#include "util/progress.hpp"
 
 namespace vslam::bus {
 namespace {
@@ -86,6 +89,11 @@ ReplayStats LockstepReplay::run() {
   const std::regex input_filter(options_.input_channels);
 
   const Utime wall_start = monotonicUtime();
+  std::error_code size_error;
+  const auto input_bytes = std::filesystem::file_size(options_.input, size_error);
+  ProgressMeter progress("replay", size_error ? 0.0 : static_cast<double>(input_bytes),
+                         ProgressMeter::kBytes,
+                         options_.show_progress && ProgressMeter::stderrIsTerminal());
   Utime first_ts = 0, last_ts = 0;
   bool started = false;
   auto is_input = [&](const std::string& channel) {
@@ -146,7 +154,16 @@ ReplayStats LockstepReplay::run() {
     lcm_->publish(ev.channel, ev.data.data(), static_cast<unsigned int>(ev.data.size()));
     ++stats_.events_fed;
     dispatchUntilQuiet();
+    progress.update(static_cast<double>(in->eventOffset()), [&] {
+      const double log_s = toSeconds(last_ts - first_ts);
+      const double wall_s = toSeconds(monotonicUtime() - wall_start);
+      char text[64];
+      std::snprintf(text, sizeof(text), "%.0f s of log, %.1fx real time", log_s,
+                    wall_s > 0 ? log_s / wall_s : 0.0);
+      return std::string(text);
+    });
   }
+  progress.finish();
   const LogReadStats& read = in->stats();
   stats_.events_read = read.events_read;
   stats_.events_missing = read.events_missing;

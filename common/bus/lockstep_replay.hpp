@@ -38,6 +38,8 @@ struct ReplayOptions {
   // what stages publish alike; the output log records what was sent. None by
   // default (then the run is exactly the run without it).
   LossOptions loss;
+  // A progress line on stderr when it is a terminal (util/progress.hpp).
+  bool show_progress = false;
 };
 
 struct ReplayStats {

@@ -20,6 +20,7 @@
 #include "eval/tum_file.hpp"
 #include "util/angles.hpp"
 #include "util/log.hpp"
+#include "util/progress.hpp"
 #include "util/statistics.hpp"
 
 namespace vslam::eval {
@@ -373,7 +374,9 @@ void writeEvents(const fs::path& file, const std::vector<Pending>& schedule, con
   bus::LogWriter log(file);
   const Eigen::Isometry3d camera_T_robot = camera.robot_T_camera.inverse();
   double odo_distance = 0, odo_rotation = 0;
+  ProgressMeter meter("import", static_cast<double>(in.images.size()), ProgressMeter::kItems);
   for (const Pending& ev : schedule) {
+    meter.update(static_cast<double>(stats->images), [] { return std::string("images"); });
     switch (ev.kind) {
       case Kind::kCalibration:
         log.write(ev.utime, stats->calibration_channel,

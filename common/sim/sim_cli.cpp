@@ -19,6 +19,7 @@
 #include "util/command_line.hpp"
 #include "util/log.hpp"
 #include "util/process.hpp"
+#include "util/progress.hpp"
 
 namespace vslam::sim {
 namespace {
@@ -238,11 +239,15 @@ std::optional<int> setUp(SimOptions& options, SimRun& run) {
   return std::nullopt;
 }
 
-// Writes the log as fast as the simulator goes, reporting every 10%.
+// Writes the log as fast as the simulator goes, reporting every 10% (and on
+// a terminal, rate and time left).
 void writeLog(Simulator& simulator, const std::string& out) {
   LogFileSink sink(out);
   double next_report = 0.1;
+  ProgressMeter meter("simulate", 0, ProgressMeter::kSeconds);
   while (!stopRequested() && simulator.step(sink)) {
+    if (simulator.progress() > 0) meter.setTotal(simulator.simTime() / simulator.progress());
+    meter.update(simulator.simTime());
     if (simulator.progress() >= next_report) {
       log::info(static_cast<int>(100 * simulator.progress()), "% (", simulator.simTime(),
                 " s simulated)");

@@ -12,6 +12,13 @@ namespace vslam::log {
 namespace {
 std::mutex g_mutex;
 std::string g_name = "vslam";
+std::string g_progress;  // the progress line on the terminal now ("" = none)
+
+// Erases the progress line, if one is showing, so that a log line starts on a
+// clean line (g_mutex held).
+void clearProgressLine() {
+  if (!g_progress.empty()) std::fputs("\r\033[K", stderr);
+}
 
 // VSLAM_LOG_LEVEL=debug|info|warn|error sets the start-up level (default
 // info); an unknown value is named on stderr and ignored.
@@ -61,8 +68,25 @@ void write(Level level, const std::string& message) {
   char stamp[32];
   std::strftime(stamp, sizeof(stamp), "%H:%M:%S", &tm);
   std::lock_guard<std::mutex> lock(g_mutex);
+  clearProgressLine();
   std::fprintf(stderr, "%s.%03d %s [%s] %s\n", stamp, static_cast<int>(ms), levelTag(level),
                g_name.c_str(), message.c_str());
+  std::fputs(g_progress.c_str(), stderr);  // back under the log line
+  std::fflush(stderr);
+}
+
+void progress(const std::string& line) {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  clearProgressLine();
+  g_progress = line;
+  std::fputs(line.c_str(), stderr);
+  std::fflush(stderr);
+}
+
+void progressDone() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  clearProgressLine();
+  g_progress.clear();
   std::fflush(stderr);
 }
 

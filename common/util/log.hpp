@@ -20,6 +20,11 @@ void setMinLevel(Level level);
 Level minLevel();
 void write(Level level, const std::string& message);
 
+// A status line kept at the bottom of a terminal (util/progress.hpp writes
+// it): log lines are printed above it. Only for a stderr that is a terminal.
+void progress(const std::string& line);
+void progressDone();  // erases it
+
 namespace detail {
 inline void append(std::ostringstream&) {}
 template <class T, class... Rest>
