@@ -18,9 +18,10 @@ constexpr long kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
 
 // Position of the next LCM event sync word (0xEDA1DA01, big-endian) at or
 // after `from`, or -1.
+constexpr unsigned char kSyncWord[4] = {0xED, 0xA1, 0xDA, 0x01};
+
 long findNextSyncWord(FILE* file, long from) {
   if (from < 0 || std::fseek(file, from, SEEK_SET) != 0) return -1;
-  const unsigned char sync[4] = {0xED, 0xA1, 0xDA, 0x01};
   unsigned char window[4] = {0, 0, 0, 0};
   long pos = from;
   int c;
@@ -30,7 +31,7 @@ long findNextSyncWord(FILE* file, long from) {
     window[2] = window[3];
     window[3] = static_cast<unsigned char>(c);
     ++pos;
-    if (pos - from >= 4 && std::memcmp(window, sync, 4) == 0) return pos - 4;
+    if (pos - from >= 4 && std::memcmp(window, kSyncWord, 4) == 0) return pos - 4;
   }
   return -1;
 }
@@ -94,7 +95,7 @@ const lcm::LogEvent* LogReader::next() {
       // The last event, cut short: a damaged tail (finish says so).
       const bool last = findNextSyncWord(fp_, oversized + 1) < 0;
       std::fseek(fp_, end_of_last_event_, SEEK_SET);  // (the search moved it)
-      if (on_damage_ == LogDamage::kThrow && !last) {
+      if (on_damage_ != LogDamage::kSkip && !last) {
         std::ostringstream os;
         os << name_ << " is damaged: the event at byte " << oversized << " claims " << claimed
            << " data bytes, more than the " << file_size_ << "-byte file holds";
@@ -113,7 +114,7 @@ const lcm::LogEvent* LogReader::next() {
     }
     const long end = std::ftell(fp_);
     const long size = kEventHeaderBytes + static_cast<long>(ev->channel.size()) + ev->datalen;
-    if (on_damage_ == LogDamage::kThrow && end - end_of_last_event_ != size) {
+    if (on_damage_ != LogDamage::kSkip && end - end_of_last_event_ != size) {
       std::ostringstream os;
       os << name_ << " is damaged: " << (end - end_of_last_event_ - size) << " bytes at byte "
          << end_of_last_event_ << " are not an LCM event (before event " << ev->eventnum << " on "
@@ -153,6 +154,23 @@ bool LogReader::skipToNextEvent(long from) {
   return true;
 }
 
+// The bytes after the last complete event are the start of one event that
+// claims more than is left (a recording cut short), not anything else. (LCM
+// refuses an intact event followed by garbage, so that event is in the tail
+// too: it starts with a sync word but is complete.)
+bool LogReader::tailIsOneCutEvent() {
+  const long tail = file_size_ - end_of_last_event_;
+  unsigned char header[kEventHeaderBytes];
+  if (std::fseek(fp_, end_of_last_event_, SEEK_SET) != 0) return false;
+  const size_t got = std::fread(header, 1, std::min(sizeof header, static_cast<size_t>(tail)), fp_);
+  if (got < 4 || std::memcmp(header, kSyncWord, 4) != 0) return false;
+  if (got < sizeof header) return true;  // cut inside the header
+  const int64_t channel_bytes = bigEndian32(header + 20);
+  const int64_t data_bytes = bigEndian32(header + 24);
+  return channel_bytes > 0 && channel_bytes < 1000 && data_bytes >= 0 &&
+         kEventHeaderBytes + channel_bytes + data_bytes > tail;
+}
+
 // readNextEvent returns null at the end and on a damaged tail alike; bytes
 // after the last complete event tell them apart.
 void LogReader::finish() {
@@ -161,6 +179,7 @@ void LogReader::finish() {
   if (end_of_last_event_ < 0 || file_size <= end_of_last_event_) return;
   stats_.tail_bytes = file_size - end_of_last_event_;
   if (on_damage_ == LogDamage::kSkip) return;
+  if (on_damage_ == LogDamage::kCutTail && stats_.events_read > 0 && tailIsOneCutEvent()) return;
   std::ostringstream os;
   if (stats_.events_read == 0) {
     os << name_ << ": not an LCM log (no complete event in its " << file_size << " bytes)";

@@ -6,6 +6,9 @@
 //   - kThrow: the log must be intact (the evaluation tools). Every byte must
 //     belong to an event and the tail must be complete; else LogError naming
 //     the byte offset.
+//   - kCutTail: as kThrow, but for an incomplete last event that starts like
+//     one (a recording cut short by a power loss): the events before it are
+//     read and stats().tail_bytes counts it (the evaluation tools).
 //   - kSkip: lose as little as possible (the lock-step replay). At a damaged
 //     header the reader skips to the next event's sync word and goes on;
 //     gaps in the event numbers and skipped bytes are counted and warned
@@ -20,7 +23,7 @@
 
 namespace vslam::bus {
 
-enum class LogDamage { kThrow, kSkip };
+enum class LogDamage { kThrow, kCutTail, kSkip };
 
 // The log cannot be opened or (kThrow) is damaged; what() names the file.
 class LogError : public std::runtime_error {
@@ -55,6 +58,7 @@ class LogReader {
  private:
   long nextOversizedEvent(int64_t* claimed);
   bool skipToNextEvent(long from);
+  bool tailIsOneCutEvent();
   void finish();
 
   std::string name_;

@@ -4,12 +4,14 @@
 #include <fstream>
 
 #include "eval/errors.hpp"
+#include "eval/output_file.hpp"
 
 namespace vslam::eval {
 
 Json jsonNumber(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
 void writeJsonFile(const std::filesystem::path& file, const Json& json) {
+  createParentFolder(file);
   std::ofstream out(file);
   if (!out) throw DataError(file.string() + ": cannot open for writing");
   // Strings come from outside (paths, channel names): bytes that are not

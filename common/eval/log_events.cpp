@@ -1,6 +1,8 @@
 #include "eval/log_events.hpp"
 
 #include "bus/log_reader.hpp"
+#include "util/log.hpp"
+#include "util/progress.hpp"
 
 namespace vslam::eval {
 
@@ -24,10 +26,21 @@ std::map<std::string, int64_t> forEachLogEvent(
     const std::filesystem::path& log, const std::function<void(const LogEventRef&)>& visit) {
   std::map<std::string, int64_t> counts;
   try {
-    bus::LogReader reader(log, bus::LogDamage::kThrow);
+    bus::LogReader reader(log, bus::LogDamage::kCutTail);
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(log, ec);
+    ProgressMeter meter("read " + log.filename().string(), ec ? 0.0 : static_cast<double>(bytes),
+                        ProgressMeter::kBytes);
     while (const lcm::LogEvent* ev = reader.next()) {
       ++counts[ev->channel];
       visit(LogEventRef{reader.name(), *ev, reader.eventOffset()});
+      meter.update(static_cast<double>(reader.eventOffset()));
+    }
+    if (reader.stats().tail_bytes > 0) {
+      vslam::log::warn(reader.name(), " ends with ", reader.stats().tail_bytes,
+                       " bytes of an event cut short (a recording stopped by a power loss?): "
+                       "evaluated the ",
+                       reader.stats().events_read, " complete events before them");
     }
   } catch (const bus::LogError& e) {
     throw DataError(e.what());

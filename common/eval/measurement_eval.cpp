@@ -10,6 +10,7 @@
 #include <set>
 
 #include "eval/errors.hpp"
+#include "eval/output_file.hpp"
 #include "odometry/pose2.hpp"
 
 namespace vslam::eval {
@@ -165,6 +166,7 @@ MeasurementReport evaluateMeasurements(const Trajectory& reference,
 }
 
 void writeMeasurementCsv(const std::string& path, const MeasurementReport& r) {
+  createParentFolder(path);
   std::ofstream f(path);
   if (!f) throw DataError(path + ": cannot open for writing");
   f << "t,camera,landmark_id,verdict,proj_err_rms,num_points,slope,dx,dy,dtheta,"

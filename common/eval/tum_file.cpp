@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "eval/errors.hpp"
+#include "eval/output_file.hpp"
 #include "util/log.hpp"
 
 namespace vslam::eval {
@@ -102,6 +103,7 @@ Trajectory readTumFile(const std::filesystem::path& file) {
 }
 
 void writeTumFile(const std::filesystem::path& file, const Trajectory& traj) {
+  createParentFolder(file);
   std::FILE* f = std::fopen(file.string().c_str(), "w");
   if (!f) throw DataError(file.string() + ": cannot open for writing");
   std::fprintf(f, "# %s\n# timestamp tx ty tz qx qy qz qw\n", traj.name.c_str());

@@ -6,7 +6,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "bus/log_reader.hpp"
 #include "bus/log_writer.hpp"
@@ -103,4 +106,44 @@ TEST(LogReader, EventNumbersFarApartAreAGapNotAnOverflow) {
   EXPECT_EQ(events, 4);
   EXPECT_EQ(skipping.stats().events_missing, std::numeric_limits<int64_t>::max())
       << "the gaps, added up to the most an int64 holds";
+}
+
+// A recording cut short (power loss): kCutTail reads the complete events and
+// counts the tail; garbage after the last event, or damage before it, is
+// still an error, as with kThrow.
+TEST(LogReader, ACutLastEventIsReadPastOnlyWhereAskedAndOnlyAtTheEnd) {
+  const fs::path whole = tempLog("whole.lcmlog");
+  {
+    vslam::bus::LogWriter writer(whole);
+    for (int i = 0; i < 3; ++i) writer.write(i + 1, "A", std::vector<uint8_t>(100, 7));
+  }
+  std::string bytes;
+  {
+    std::ifstream in(whole, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto write = [](const fs::path& f, const std::string& b) {
+    std::ofstream(f, std::ios::binary | std::ios::trunc).write(b.data(), std::streamsize(b.size()));
+  };
+  const auto count = [](const fs::path& f, LogDamage mode, int64_t* tail = nullptr) {
+    LogReader reader(f, mode);
+    int n = 0;
+    while (reader.next()) ++n;
+    if (tail) *tail = reader.stats().tail_bytes;
+    return n;
+  };
+  const fs::path cut = tempLog("cut.lcmlog");
+  write(cut, bytes.substr(0, bytes.size() - 40));
+  int64_t tail = 0;
+  EXPECT_EQ(count(cut, LogDamage::kCutTail, &tail), 2);
+  EXPECT_EQ(tail, static_cast<int64_t>(bytes.size() / 3 - 40));
+  EXPECT_THROW(count(cut, LogDamage::kThrow), LogError);
+
+  const fs::path junk_tail = tempLog("junk_tail.lcmlog");
+  write(junk_tail, bytes + "JUNKJUNKJUNK");
+  EXPECT_THROW(count(junk_tail, LogDamage::kCutTail), LogError);
+  const fs::path junk_inside = tempLog("junk_inside.lcmlog");
+  write(junk_inside, bytes.substr(0, bytes.size() / 3) + "JUNK" + bytes.substr(bytes.size() / 3));
+  EXPECT_THROW(count(junk_inside, LogDamage::kCutTail), LogError);
+  fs::remove_all(whole.parent_path());
 }

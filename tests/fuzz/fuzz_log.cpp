@@ -43,10 +43,12 @@ int64_t readAll(vslam::bus::LogDamage mode) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::ofstream(scratchFile(), std::ios::binary | std::ios::trunc)
       .write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  try {
-    (void)readAll(vslam::bus::LogDamage::kThrow);
-  } catch (const vslam::bus::LogError& e) {
-    if (std::string(e.what()).empty()) std::abort();
+  for (const auto mode : {vslam::bus::LogDamage::kThrow, vslam::bus::LogDamage::kCutTail}) {
+    try {
+      (void)readAll(mode);
+    } catch (const vslam::bus::LogError& e) {
+      if (std::string(e.what()).empty()) std::abort();
+    }
   }
   (void)readAll(vslam::bus::LogDamage::kSkip);  // must not throw: damage is skipped
   return 0;
