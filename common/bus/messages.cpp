@@ -38,6 +38,7 @@ vslam::health_t healthMessage(const std::string& process, const std::string& ins
   msg.utime = utime;
   msg.process = process;
   msg.instance = instance;
+  msg.host = hostName();
   msg.pid = static_cast<int32_t>(getpid());
   msg.uptime = toSeconds(monotonicUtime() - started_monotonic);
   msg.level = static_cast<int8_t>(report.level);

@@ -1,6 +1,7 @@
 #include "bus/process_main.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -62,7 +63,9 @@ std::string describedLine(const config::ResolvedValue& value,
 }  // namespace
 
 int runStageProcess(int argc, char** argv, const std::string& role, const StageRegistry& registry) {
-  const std::string program = "vslam-" + role;
+  // The executable's name: roles are snake_case, programs kebab-case.
+  std::string program = "vslam-" + role;
+  std::replace(program.begin(), program.end(), '_', '-');
   ProcessArgs args;
   if (const auto exit_code = parseArgs(argc, argv, program, &args)) return *exit_code;
   if (args.instance.empty()) args.instance = role;

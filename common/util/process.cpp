@@ -48,6 +48,12 @@ void tuneAllocatorForSteadyState() {
   mallopt(M_TOP_PAD, 64 * 1024 * 1024);
 }
 
+std::string hostName() {
+  char name[256] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0) return "";
+  return name;
+}
+
 ResourceUsage currentResourceUsage() {
   ResourceUsage usage;
   struct rusage ru {};

@@ -3,6 +3,7 @@
 // allocator tuning, resource usage.
 
 #include <cstdint>
+#include <string>
 
 namespace vslam {
 
@@ -25,5 +26,8 @@ struct ResourceUsage {
   int64_t rss_bytes = 0;
 };
 ResourceUsage currentResourceUsage();
+
+// This machine's host name ("" if the system will not say).
+std::string hostName();
 
 }  // namespace vslam

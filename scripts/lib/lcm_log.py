@@ -54,7 +54,7 @@ class Reader:
 
 def decode_health(data):
     r = Reader(data)
-    utime, process, instance, pid = r.i64(), r.string(), r.string(), r.i32()
+    utime, process, instance, host, pid = r.i64(), r.string(), r.string(), r.string(), r.i32()
     uptime, level, message = r.f64(), r.i8(), r.string()
     cpu, rss, received, published, dropped = r.f64(), r.i64(), r.i64(), r.i64(), r.i64()
     malformed, latency_ms, n = r.i64(), r.f64(), r.i32()
@@ -62,7 +62,7 @@ def decode_health(data):
     for _ in range(n):  # nested structs carry no fingerprint
         name, value, _unit = r.string(), r.f64(), r.string()
         metrics[name] = value
-    return dict(utime=utime, process=process, instance=instance, pid=pid, uptime=uptime,
+    return dict(utime=utime, process=process, instance=instance, host=host, pid=pid, uptime=uptime,
                 level=level, message=message, cpu=cpu, rss=rss, received=received,
                 published=published, dropped=dropped, malformed=malformed,
                 latency_ms=latency_ms, metrics=metrics)

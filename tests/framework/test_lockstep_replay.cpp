@@ -381,3 +381,15 @@ TEST(PrintConfig, ListsTheSharedBlocksAProcessReads) {
   const std::string appearance = printed("vslam-appearance", "appearance");
   EXPECT_EQ(appearance.find("prefilter."), std::string::npos) << appearance;
 }
+
+// A process names itself as it is installed (roles are snake_case, programs
+// kebab-case): `vslam-landmark-db --help`, not "vslam-landmark_db".
+TEST(ProcessUsage, NamesTheProgramAsItIsInstalled) {
+  for (const std::string program : {"vslam-landmark-db", "vslam-odometry-bridge"}) {
+    std::string out;
+    EXPECT_EQ(runCommand(std::string(VSLAM_BIN_DIR) + "/" + program + " --help", &out), 0) << out;
+    EXPECT_NE(out.find(program), std::string::npos) << out;
+    EXPECT_EQ(out.find("_db"), std::string::npos) << out;
+    EXPECT_EQ(out.find("odometry_bridge"), std::string::npos) << out;
+  }
+}

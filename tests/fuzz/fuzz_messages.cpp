@@ -14,6 +14,7 @@
 #include "fuzz_target.hpp"
 #include "stages/frontend_stage.hpp"
 #include "stages/image_gray.hpp"
+#include "status/status_cli.hpp"
 #include "transport/message_fill.hpp"
 
 namespace {
@@ -34,6 +35,15 @@ void handle(const vslam::landmark_t& m) { (void)vslam::stages::checkLandmarkMess
 void handle(const vslam::image_t& m) {
   cv::Mat gray;
   (void)vslam::stages::imageToGray(m, &gray);
+}
+// vslam-status: whatever a HEALTH message holds, the board stays printable.
+void handle(const vslam::health_t& m) {
+  vslam::status::StatusBoard board;
+  board.add(vslam::status::healthSampleOf(m, 1.0));
+  board.add(vslam::status::healthSampleOf(m, 2.0));
+  for (const char c : vslam::status::renderBoard(board.rows(2.5), 100)) {
+    if (c != '\n' && (c < 0x20 || c > 0x7e)) std::abort();
+  }
 }
 
 template <class Msg>

@@ -141,7 +141,7 @@ TEST_F(BridgeProcess, PoseLinesOverAPtyArriveAsOdometry) {
     if (m.pid == bridge.pid() && metric(m, "lines_rejected") == 3) h = &m;
   }
   ASSERT_NE(h, nullptr);
-  EXPECT_EQ(h->process, "vslam-odometry_bridge");
+  EXPECT_EQ(h->process, "vslam-odometry-bridge");
   EXPECT_EQ(metric(*h, "lines_read"), kReadings + 4);  // and the comment
   EXPECT_EQ(metric(*h, "lines_accepted"), kReadings);
   EXPECT_EQ(metric(*h, "rejected_field_count"), 1);

@@ -270,6 +270,7 @@ std::vector<HostileCase> hostileCases() {
             .i64(1)
             .str("vslam-frontend")
             .str("frontend_forward")
+            .str("robot")
             .i32(4242)
             .f64()
             .i8(health_t::LEVEL_OK)
