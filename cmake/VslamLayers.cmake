@@ -7,7 +7,7 @@
 # Libraries that may not depend on LCM, directly or through others.
 set(VSLAM_LCM_FREE_TARGETS vslam_util vslam_config vslam_odometry vslam_world vslam_frontend
     vslam_backend vslam_appearance vslam_landmark_db vslam_eval vslam_capture vslam_odometry_bridge
-    vslam_calibration vslam_status)
+    vslam_calibration vslam_status vslam_viewer)
 # What "LCM" is: the library, and the generated message types.
 set(VSLAM_LCM_TARGETS PkgConfig::LCM vslam_lcmtypes vslam_bus)
 
