@@ -52,11 +52,21 @@ TEST_F(StatusCli, ListsTheProcessesOnTheBusAndFailsOnceWhenOneIsStale) {
   ASSERT_TRUE(bus.spinUntil([&] { return health_from_deadreckon > 0; }, 10.0))
       << "no HEALTH from vslam-deadreckon";
 
+  // vslam-status --once listening for `wait` seconds, its output in `file`.
+  const auto statusOnce = [&](const std::string& wait, const fs::path& file) {
+    return tt::Child::spawn(
+        {bin + "/vslam-status", "--once", "--wait", wait, "--config", config, "--lcm-url", kUrl},
+        {}, file.string());
+  };
+  const auto exitStatus = [](tt::Child& child) {
+    const auto code = child.waitFor(15.0);
+    EXPECT_TRUE(code.has_value()) << "vslam-status --once did not exit";
+    return code;
+  };
+
   // A process heard once, then silent: stale after 3 s.
   const fs::path first = dir / "first.txt";
-  tt::Child status = tt::Child::spawn(
-      {bin + "/vslam-status", "--once", "--wait", "4.5", "--config", config, "--lcm-url", kUrl}, {},
-      first.string());
+  tt::Child status = statusOnce("4.5", first);
   bus.spinFor(1.0);
   vslam::health_t ghost{};
   ghost.utime = 1;
@@ -65,10 +75,9 @@ TEST_F(StatusCli, ListsTheProcessesOnTheBusAndFailsOnceWhenOneIsStale) {
   ghost.host = "elsewhere";
   ghost.pid = 4242;
   bus.publish("HEALTH", ghost);
-  const auto code = status.waitFor(15.0);
-  ASSERT_TRUE(code.has_value()) << "vslam-status --once did not exit";
+  const auto code = exitStatus(status);
   const std::string board = readText(first);
-  EXPECT_TRUE(tt::exitedWith(code, 1)) << tt::describeStatus(*code) << "\n" << board;
+  EXPECT_TRUE(tt::exitedWith(code, 1)) << board;
   char host[256] = {};
   gethostname(host, sizeof(host) - 1);
   EXPECT_NE(board.find("deadreckon"), std::string::npos) << board;
@@ -78,23 +87,15 @@ TEST_F(StatusCli, ListsTheProcessesOnTheBusAndFailsOnceWhenOneIsStale) {
 
   // Only live processes: exit 0.
   const fs::path second = dir / "second.txt";
-  tt::Child again = tt::Child::spawn(
-      {bin + "/vslam-status", "--once", "--wait", "2.5", "--config", config, "--lcm-url", kUrl}, {},
-      second.string());
-  const auto code2 = again.waitFor(15.0);
-  ASSERT_TRUE(code2.has_value());
-  EXPECT_TRUE(tt::exitedWith(code2, 0)) << tt::describeStatus(*code2) << "\n" << readText(second);
+  tt::Child again = statusOnce("2.5", second);
+  EXPECT_TRUE(tt::exitedWith(exitStatus(again), 0)) << readText(second);
   EXPECT_EQ(readText(second).find("STALE"), std::string::npos) << readText(second);
 
   // Nobody on the bus.
   deadreckon.kill();
   const fs::path third = dir / "third.txt";
-  tt::Child empty = tt::Child::spawn(
-      {bin + "/vslam-status", "--once", "--wait", "1.5", "--config", config, "--lcm-url", kUrl}, {},
-      third.string());
-  const auto code3 = empty.waitFor(15.0);
-  ASSERT_TRUE(code3.has_value());
-  EXPECT_TRUE(tt::exitedWith(code3, 1)) << readText(third);
+  tt::Child empty = statusOnce("1.5", third);
+  EXPECT_TRUE(tt::exitedWith(exitStatus(empty), 1)) << readText(third);
   EXPECT_NE(readText(third).find("no process heard on HEALTH"), std::string::npos)
       << readText(third);
   fs::remove_all(dir);
