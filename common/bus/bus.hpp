@@ -64,7 +64,8 @@ class Bus {
   void reportMalformed(const std::string& channel, const std::string& why);
 
   const BusCounters& counters() const { return counters_; }
-  // Mean (handling end - message utime) in ms since the last call; 0 if none.
+  // Mean (end of handling - arrival), both on the wall clock, in ms since the
+  // last call; 0 if none.
   double takeMeanLatencyMs();
   // Messages received per channel since start.
   std::map<std::string, int64_t> receivedPerChannel() const;
@@ -85,7 +86,7 @@ class Bus {
     void onRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
     void handle(const lcm::ReceiveBuffer* rbuf);
     LossStream* lossStream(const std::string& on_channel);
-    virtual bool decodeAndHandle(const lcm::ReceiveBuffer* rbuf, Utime* msg_utime) = 0;
+    virtual bool decodeAndHandle(const lcm::ReceiveBuffer* rbuf) = 0;
     Bus* bus = nullptr;
     std::string channel;
     std::string type_name;
@@ -97,7 +98,7 @@ class Bus {
   struct TypedSubscription final : Subscription {
     std::function<void(const Msg&)> handler;
     Msg msg;  // reused: keeps buffers (images) allocated between messages
-    bool decodeAndHandle(const lcm::ReceiveBuffer* rbuf, Utime* msg_utime) override;
+    bool decodeAndHandle(const lcm::ReceiveBuffer* rbuf) override;
   };
   void add(std::unique_ptr<Subscription> sub, int queue_capacity);
 
@@ -111,22 +112,13 @@ class Bus {
   std::shared_ptr<LossInjector> loss_;
 };
 
-namespace detail {
-template <class T, class = void>
-struct HasUtime : std::false_type {};
-template <class T>
-struct HasUtime<T, std::void_t<decltype(std::declval<T>().utime)>> : std::true_type {};
-}  // namespace detail
-
 template <class Msg>
-bool Bus::TypedSubscription<Msg>::decodeAndHandle(const lcm::ReceiveBuffer* rbuf,
-                                                  Utime* msg_utime) {
+bool Bus::TypedSubscription<Msg>::decodeAndHandle(const lcm::ReceiveBuffer* rbuf) {
   std::string why;
   if (!checkedDecode(msg, rbuf->data, rbuf->data_size, &why)) {
     bus->reportMalformed(channel, why);
     return false;
   }
-  if constexpr (detail::HasUtime<Msg>::value) *msg_utime = msg.utime;
   handler(msg);
   return true;
 }

@@ -47,8 +47,12 @@ TEST(Bus, DeliversDecodedMessagesAndCounts) {
   EXPECT_EQ(bus.counters().received.load(), 3);
   EXPECT_EQ(bus.counters().published.load(), 3);
   EXPECT_EQ(bus.counters().malformed.load(), 0);
-  // Latency is measured from the message's utime to the handling time.
-  EXPECT_NEAR(bus.takeMeanLatencyMs(), (5000 - 1001) * 1e-3, 1e-9);
+  // Latency is from a message's arrival to the end of its handling, on the
+  // wall clock: not against the message's utime or the stage's clock (5000
+  // here), which need not be the wall clock.
+  const double latency_ms = bus.takeMeanLatencyMs();
+  EXPECT_GE(latency_ms, 0.0);
+  EXPECT_LT(latency_ms, 1000.0);
   EXPECT_EQ(bus.takeMeanLatencyMs(), 0.0);  // window restarts
   EXPECT_EQ(bus.receivedPerChannel().at("ODO"), 3);
 }
