@@ -171,8 +171,9 @@ int playLog(const ViewerOptions& o, const config::RobotConfig& robot, bool windo
       return kExitFailure;
     }
     double next_snapshot = 0, next_draw_wall = 0, log_start = -1, last_written = -1;
-    const double wall_start = toSeconds(monotonicUtime());
-    double paused_wall = 0;
+    // Pacing: robot time anchor_t was shown at wall time anchor_wall; a pause
+    // or a seek sets a new anchor (-1: at the next event shown).
+    double anchor_t = -1, anchor_wall = 0;
     bool restart = false;
     while (!stopRequested()) {
       const lcm::LogEvent* ev = reader->next();
@@ -189,8 +190,10 @@ int playLog(const ViewerOptions& o, const config::RobotConfig& robot, bool windo
         next_snapshot = (std::floor(t / o.every_s) + 1) * o.every_s;
       }
       if (t < seek_to) continue;
-      if (o.speed > 0) {  // pace: robot time against wall time
-        const double ahead = t / o.speed - (toSeconds(monotonicUtime()) - wall_start - paused_wall);
+      if (o.speed > 0) {
+        const double wall = toSeconds(monotonicUtime());
+        if (anchor_t < 0) anchor_t = t, anchor_wall = wall;
+        const double ahead = (t - anchor_t) / o.speed - (wall - anchor_wall);
         if (ahead > 0.002) std::this_thread::sleep_for(std::chrono::duration<double>(ahead));
       }
       if (!window) continue;
@@ -200,14 +203,13 @@ int playLog(const ViewerOptions& o, const config::RobotConfig& robot, bool windo
       cv::imshow(kWindow, model.render(o.size));
       int key = cv::waitKeyEx(1);
       if (key == ' ') {  // pause until space again (or a seek, or q)
-        const double paused_at = toSeconds(monotonicUtime());
         do key = cv::waitKeyEx(100);
         while (key != ' ' && key != 'q' && key != 27 && !isLeft(key) && !isRight(key) &&
                !stopRequested());
-        paused_wall += toSeconds(monotonicUtime()) - paused_at;
+        anchor_t = -1;
       }
       if (key == 'q' || key == 27) return kExitOk;
-      if (isRight(key)) seek_to = t + 10;
+      if (isRight(key)) seek_to = t + 10, anchor_t = -1;
       if (isLeft(key)) {
         seek_to = std::max(0.0, t - 10);
         restart = true;
