@@ -244,13 +244,14 @@ std::string renderBoard(const std::vector<Row>& rows, int width) {
     std::string figures;
     for (const auto& m : r.key_figures) figures += (figures.empty() ? "" : ", ") + figureText(m);
     const std::string level = r.stale ? "STALE" : levelName(r.level);
-    line(pad(r.instance, 20) + " " + pad(r.host, 12) + " " + pad(std::to_string(r.pid), 7, true) +
-         " " + pad(duration(r.uptime_s), 7, true) + " " + pad(level, 5) + " " +
-         pad(number(r.cpu_percent, 0), 5, true) + " " +
-         pad(number(static_cast<double>(r.rss_bytes) / (1 << 20), 0), 6, true) + " " +
-         pad(number(r.rx_per_s, 1), 6, true) + " " + pad(number(r.tx_per_s, 1), 6, true) + " " +
-         pad(std::to_string(r.dropped + r.malformed), 6, true) + " " +
-         pad(number(r.handler_latency_ms, 1), 6, true) + "  " + figures);
+    line(
+        pad(r.instance, 20) + " " + pad(r.host, 12) + " " + pad(std::to_string(r.pid), 7, true) +
+        " " + pad(duration(r.uptime_s), 7, true) + " " + pad(level, 5) + " " +
+        pad(number(r.cpu_percent, 0), 5, true) + " " +
+        pad(number(static_cast<double>(r.rss_bytes) / (1 << 20), 0), 6, true) + " " +
+        pad(number(r.rx_per_s, 1), 6, true) + " " + pad(number(r.tx_per_s, 1), 6, true) + " " +
+        pad(number(static_cast<double>(r.dropped) + static_cast<double>(r.malformed), 0), 6, true) +
+        " " + pad(number(r.handler_latency_ms, 1), 6, true) + "  " + figures);
     const std::string who = cut(r.instance, 40) + (r.host.empty() ? "" : "@" + cut(r.host, 40));
     if (r.stale) notes.push_back(who + ": STALE, silent for " + duration(r.silent_s));
     if (r.level != 0 && !r.message.empty()) {

@@ -143,6 +143,9 @@ TEST(StatusBoard, HostileMessagesCannotGrowItOrBreakTheTable) {
   s.cpu_seconds = std::numeric_limits<double>::quiet_NaN();
   s.uptime_s = std::numeric_limits<double>::infinity();
   s.message = "bad\x1b]0;title\x07";
+  s.dropped =
+      std::numeric_limits<int64_t>::max();  // found by fuzzing (UBSan): their sum overflowed
+  s.malformed = 18;
   s.level = 2;
   s.metrics = {{"effective_sample_size", std::numeric_limits<double>::quiet_NaN(), ""}};
   odd.add(s);
