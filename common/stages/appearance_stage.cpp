@@ -158,7 +158,8 @@ config::ParamTable<P> mapFileKeys() {
   config::ParamTable<P> t;
   t.add("map_period_s", &P::map_period_s, config::positive(), "s", "`APPEARANCE_MAP` period")
       .path("map_file", &P::map_file, false,
-            "SQLite map file, relative to the config file; \"\" keeps the map in memory only")
+            "SQLite map file, relative to the config file or under `$XDG_DATA_HOME/` or `~/`; \"\" "
+            "keeps the map in memory only")
       .add("map_load", &P::map_load,
            "start from the map file if it exists (required with `map_file`)")
       .add("map_save", &P::map_save, "write the map file at shutdown (required with `map_file`)")
@@ -214,7 +215,8 @@ AppearanceStage::AppearanceStage(AppearanceParams params)
             appearance::histogramLength(params_.histogram)),
       detector_(params_.action) {
   slam_.setActionModel(params_.action_error);
-  if (std::error_code ec; params_.map_load && std::filesystem::exists(params_.map_file, ec)) {
+  const bool load = params_.map_load && !params_.map_file.empty();
+  if (std::error_code ec; load && std::filesystem::exists(params_.map_file, ec)) {
     // A map that cannot be used is a configuration error: better to stop
     // than to overwrite it with a fresh one at shutdown.
     const auto map = appearance::loadMap(params_.map_file);
@@ -222,7 +224,7 @@ AppearanceStage::AppearanceStage(AppearanceParams params)
     loaded_map_ = true;
     log::info("appearance map ", params_.map_file.string(), ": ", map.states.size(), " states, ",
               map.path.size(), " visits");
-  } else if (params_.map_load) {
+  } else if (load) {
     log::info("no appearance map at ", params_.map_file.string(), " yet: starting a new one");
   }
 }

@@ -49,7 +49,7 @@ struct AppearanceParams {
   std::filesystem::path map_file;  // empty: no persistence
   bool map_load = false;
   bool map_save = false;
-  double map_save_period_s = 60.0;  // 0: only at shutdown
+  double map_save_period_s = 30.0;  // 0: only at shutdown
 
   // The keys of the block, declared once (config/param_table.hpp).
   static const config::ParamTable<AppearanceParams>& table();

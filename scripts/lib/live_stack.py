@@ -40,13 +40,30 @@ class ConfigCopyError(Exception):
     pass
 
 
+# The map files a run leaves beside its landmark map (write_config): the
+# landmark DB's SQLite file with its WAL, and the appearance map.
+MAP_FILES = ("landmarks.vslam-map", "landmarks.vslam-map-wal", "landmarks.vslam-map-shm",
+             "appearance.vslam-appearance")
+
+
+def remove_maps(folder):
+    """Deletes MAP_FILES of an earlier run in FOLDER: they would be loaded."""
+    for name in MAP_FILES:
+        if os.path.exists(os.path.join(folder, name)):
+            os.remove(os.path.join(folder, name))
+
+
 def write_config(path, map_file, scenario_file, speed, duration):
-    """config/vslam.yaml with the landmark map at MAP_FILE and the simulator's
-    scenario, speed and duration set; written to PATH."""
+    """config/vslam.yaml with the landmark map at MAP_FILE, the appearance map
+    beside it (appearance.vslam-appearance) and the simulator's scenario, speed
+    and duration set; written to PATH."""
     text = open(os.path.join(ROOT, "config/vslam.yaml")).read()
+    appearance_map = os.path.join(os.path.dirname(map_file), "appearance.vslam-appearance")
     subs = [
         (r"^robot: robot/", f"robot: {ROOT}/config/robot/"),
         (r"map_file: \$XDG_DATA_HOME/vslam/landmarks\.vslam-map", f"map_file: {map_file}"),
+        (r"map_file: \$XDG_DATA_HOME/vslam/appearance\.vslam-appearance",
+         f"map_file: {appearance_map}"),
         (r"^    scenario: apartment .*$", f"    scenario: {scenario_file}"),
         (r"^    speed: 1\.0 .*$", f"    speed: {speed}"),
         (r"^    duration: 0 .*$", f"    duration: {duration}"),

@@ -47,6 +47,14 @@ void replayAppearance(const config::StackConfig& stack, const fs::path& input,
   replay.run();
 }
 
+// config/vslam.yaml with the appearance map in memory, as vslam-replay runs
+// it: the shipped map file is the user's (in $XDG_DATA_HOME), not a test's.
+config::StackConfig shippedConfigInMemory() {
+  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  stack.process("appearance").set("map_file", "");
+  return stack;
+}
+
 // config/vslam.yaml with the appearance map kept in `map`.
 config::StackConfig configWithMap(const fs::path& dir, const fs::path& map) {
   std::ifstream in(kSource / "config/vslam.yaml");
@@ -57,8 +65,7 @@ config::StackConfig configWithMap(const fs::path& dir, const fs::path& map) {
     if (at != std::string::npos) yaml.replace(at, from.size(), to);
   };
   replace("robot: robot/", "robot: " + (kSource / "config/robot").string() + "/");
-  replace("map_file: \"\"",
-          "map_file: " + map.string() + "\n    map_load: true\n    map_save: true");
+  replace("map_file: $XDG_DATA_HOME/vslam/appearance.vslam-appearance", "map_file: " + map.string());
   std::ofstream(dir / "vslam.yaml") << yaml;
   return config::StackConfig::loadFile(dir / "vslam.yaml");
 }
@@ -72,8 +79,18 @@ void secondRunStartsInTheSavedMap(const fs::path& scratch) {
   const fs::path dir = scratch / "map";
   fs::create_directories(dir);
   const auto stack = configWithMap(dir, dir / "appearance.map");
+  testing::internal::CaptureStderr();
   replayAppearance(stack, scratch / "sim.lcmlog", dir / "first.lcmlog");
+  const std::string said = testing::internal::GetCapturedStderr();
   ASSERT_TRUE(fs::exists(dir / "appearance.map"));
+  // Saved every map_save_period_s of robot time (the shipped 30 s), not only
+  // at shutdown: a process killed on the way loses at most that much.
+  int saves = 0;
+  for (size_t at = said.find("saved appearance map"); at != std::string::npos;
+       at = said.find("saved appearance map", at + 1)) {
+    ++saves;
+  }
+  EXPECT_GE(saves, 3) << said;
   const auto first = eval::evaluateAppearanceLog(dir / "first.lcmlog", {});
 
   replayAppearance(stack, scratch / "sim.lcmlog", dir / "second.lcmlog");
@@ -163,7 +180,7 @@ fs::path* AppearanceStageTest::dir_ = nullptr;
 
 TEST_F(AppearanceStageTest, RelocalizesOnTheSecondLapOfTheLoopAndReloadsItsMap) {
   const fs::path dir = *dir_;
-  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  const auto stack = shippedConfigInMemory();
   replayAppearance(stack, dir / "sim.lcmlog", dir / "run.lcmlog");
 
   const eval::AppearanceReport r = eval::evaluateAppearanceLog(dir / "run.lcmlog", {});
@@ -217,7 +234,7 @@ TEST_F(AppearanceStageTest, RelocalizesOnTheSecondLapOfTheLoopAndReloadsItsMap) 
 TEST_F(AppearanceStageTest, ACarriedRobotRelocalizesIntoTheFirstLap) {
   const fs::path dir = *dir_;
   writeCarriedLog(dir / "sim.lcmlog", dir / "carried.lcmlog", 0.35, 0.55);
-  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  const auto stack = shippedConfigInMemory();
   replayAppearance(stack, dir / "carried.lcmlog", dir / "carried_run.lcmlog");
   const eval::AppearanceReport r = eval::evaluateAppearanceLog(dir / "carried_run.lcmlog", {});
   ASSERT_EQ(r.kidnaps.size(), 1u) << "the carry is one jump of the ground truth";
@@ -237,7 +254,7 @@ TEST_F(AppearanceStageTest, ACarriedRobotRelocalizesIntoTheFirstLap) {
 // stage goes on taking snapshots.
 TEST(AppearanceStage, SkipsBadInputAndKeepsRunning) {
   const fs::path dir = vslam::test::scratchDir("appearance_bad_input");
-  const auto stack = config::StackConfig::loadFile(kSource / "config/vslam.yaml");
+  const auto stack = shippedConfigInMemory();
   {
     vslam::bus::LogWriter log(dir / "bad.lcmlog");
     const auto write = [&](int64_t t, const std::string& channel, const auto& msg) {

@@ -100,6 +100,11 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"backend.map_prior_file",
        "a restarted back-end continues in the landmark DB's map (kill campaign, issue 19)"},
       {"backend.map_prior_start", "as map_prior_file: relocalize in that map"},
+      {"appearance.map_file",
+       "the live robot's topological map survives restarts and sessions (issue 19); the library "
+       "keeps it in memory, as tests and replays do"},
+      {"appearance.map_load", "as appearance.map_file"},
+      {"appearance.map_save", "as appearance.map_file"},
       {"frontend.dim_frame_gain_target",
        "dim rooms of generated homes (docs/frontend.md); the library keeps the paper's frames"},
       {"camera.width", "the robot file's cameras are calibrated at 320x240"},

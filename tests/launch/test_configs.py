@@ -50,6 +50,8 @@ def main():
         block["source"] = f"video:../out/video-robot/{cam}.avi"
         block["speed"] = 1.0
     want["processes"]["landmark_db"]["map_file"] = "$XDG_DATA_HOME/vslam/video-robot.vslam-map"
+    want["processes"]["appearance"]["map_file"] = (
+        "$XDG_DATA_HOME/vslam/video-robot.vslam-appearance")
     expect_same("vslam-video-robot.yaml", video, want)
     expect_same("vslam-video-robot.yaml processes", video["processes"], want["processes"])
 
