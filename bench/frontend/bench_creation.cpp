@@ -102,7 +102,9 @@ void BM_Sift(benchmark::State& state) {
   const int width = static_cast<int>(state.range(0));
   cv::setNumThreads(static_cast<int>(state.range(1)));
   const auto& views = triples(width);
-  FeatureExtractor extractor(intrinsics(width));
+  SiftParams sift;
+  sift.double_first_octave = state.range(2) != 0;
+  FeatureExtractor extractor(intrinsics(width), sift);
   Features features;
   size_t i = 0, total = 0;
   for (auto _ : state) {
@@ -116,8 +118,8 @@ void BM_Sift(benchmark::State& state) {
                  std::to_string(views.size() * 3) + " frames");
 }
 BENCHMARK(BM_Sift)
-    ->ArgNames({"width", "threads"})
-    ->ArgsProduct({{320, 640}, {1, 2}})
+    ->ArgNames({"width", "threads", "double_first_octave"})
+    ->ArgsProduct({{320, 640}, {1, 2}, {1, 0}})
     ->Unit(benchmark::kMillisecond);
 
 std::vector<std::array<Features, 3>> extractAll(int width) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 namespace vslam::frontend {
@@ -66,7 +67,22 @@ void FeatureExtractor::extract(const cv::Mat& gray, Features* out) {
       image = &gained_;
     }
   }
-  sift_->detectAndCompute(*image, cv::noArray(), out->keypoints, out->descriptors);
+  if (params_.double_first_octave) {
+    sift_->detectAndCompute(*image, cv::noArray(), out->keypoints, out->descriptors);
+  } else {
+    cv::resize(*image, halved_, cv::Size((image->cols + 1) / 2, (image->rows + 1) / 2), 0, 0,
+               cv::INTER_AREA);
+    sift_->detectAndCompute(halved_, cv::noArray(), out->keypoints, out->descriptors);
+    // Pixel centres are at integers: halved pixel c covers image pixels
+    // 2c and 2c+1 (centre 2c + 0.5).
+    const float sx = static_cast<float>(image->cols) / static_cast<float>(halved_.cols);
+    const float sy = static_cast<float>(image->rows) / static_cast<float>(halved_.rows);
+    for (cv::KeyPoint& k : out->keypoints) {
+      k.pt.x = (k.pt.x + 0.5f) * sx - 0.5f;
+      k.pt.y = (k.pt.y + 0.5f) * sy - 0.5f;
+      k.size *= 0.5f * (sx + sy);
+    }
+  }
   pixels_.resize(out->keypoints.size());
   for (size_t i = 0; i < pixels_.size(); ++i) pixels_[i] = out->keypoints[i].pt;
   undistort(pixels_, &out->normalized);

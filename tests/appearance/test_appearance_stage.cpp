@@ -65,7 +65,8 @@ config::StackConfig configWithMap(const fs::path& dir, const fs::path& map) {
     if (at != std::string::npos) yaml.replace(at, from.size(), to);
   };
   replace("robot: robot/", "robot: " + (kSource / "config/robot").string() + "/");
-  replace("map_file: $XDG_DATA_HOME/vslam/appearance.vslam-appearance", "map_file: " + map.string());
+  replace("map_file: $XDG_DATA_HOME/vslam/appearance.vslam-appearance",
+          "map_file: " + map.string());
   std::ofstream(dir / "vslam.yaml") << yaml;
   return config::StackConfig::loadFile(dir / "vslam.yaml");
 }
