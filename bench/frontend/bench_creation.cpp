@@ -1,5 +1,6 @@
 // Landmark creation speed on rendered simulator frames (realistic texture):
-// SIFT extraction per frame at 320x240 and 640x480, ratio-test matching of
+// SIFT extraction per frame at 320x240 and 640x480 (with and without the
+// doubled first octave: SiftParams::double_first_octave), ratio-test matching of
 // two frames, and the whole three-view creation (matching, two-view
 // geometry, bundle adjustment) on triples of views 20 cm apart along the
 // apartment's route. OpenCV threads as given by the `threads` argument

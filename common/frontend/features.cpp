@@ -73,13 +73,19 @@ void FeatureExtractor::extract(const cv::Mat& gray, Features* out) {
     cv::resize(*image, halved_, cv::Size((image->cols + 1) / 2, (image->rows + 1) / 2), 0, 0,
                cv::INTER_AREA);
     sift_->detectAndCompute(halved_, cv::noArray(), out->keypoints, out->descriptors);
-    // Pixel centres are at integers: halved pixel c covers image pixels
-    // 2c and 2c+1 (centre 2c + 0.5).
+    // Pixel centres are at integers: halved pixel c covers image pixels 2c
+    // and 2c+1 (centre 2c + 0.5). OpenCV 4.6 reports keypoints of its doubled
+    // octave a quarter pixel too far right and down (its 2x INTER_LINEAR
+    // puts doubled pixel d at d/2 - 0.25, it reports d/2), so the true
+    // position in the halved image is the reported one minus 0.25.
+    // (With double_first_octave the stack keeps OpenCV's quarter pixel: a
+    // shift of every bearing alike, which a landmark's creation and its
+    // measurements share. FeatureExtractor tests measure both.)
     const float sx = static_cast<float>(image->cols) / static_cast<float>(halved_.cols);
     const float sy = static_cast<float>(image->rows) / static_cast<float>(halved_.rows);
     for (cv::KeyPoint& k : out->keypoints) {
-      k.pt.x = (k.pt.x + 0.5f) * sx - 0.5f;
-      k.pt.y = (k.pt.y + 0.5f) * sy - 0.5f;
+      k.pt.x = (k.pt.x + 0.25f) * sx - 0.5f;
+      k.pt.y = (k.pt.y + 0.25f) * sy - 0.5f;
       k.size *= 0.5f * (sx + sy);
     }
   }

@@ -74,15 +74,17 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
         .add(
             "sift_max_features", [](auto& p) -> auto& { return p.frontend.sift.nfeatures; },
             InRange{0, 100000}, "", "keep the N strongest SIFT features (0 = all)")
-        .add("sift_contrast_threshold",
-             [](auto& p) -> auto& { return p.frontend.sift.contrast_threshold; },
-             InRange{0.001, 1.0}, "",
-             "OpenCV's contrastThreshold: weaker extrema are not keypoints (divided by the "
-             "layers per octave)")
-        .add("sift_double_first_octave",
-             [](auto& p) -> auto& { return p.frontend.sift.double_first_octave; },
-             "SIFT's first octave at twice the image's resolution (OpenCV's, Lowe's); false: at "
-             "its own, about a third of the time, fewer small features")
+        .add(
+            "sift_contrast_threshold",
+            [](auto& p) -> auto& { return p.frontend.sift.contrast_threshold; },
+            InRange{0.001, 1.0}, "",
+            "OpenCV's contrastThreshold: weaker extrema are not keypoints (divided by the "
+            "layers per octave)")
+        .add(
+            "sift_double_first_octave",
+            [](auto& p) -> auto& { return p.frontend.sift.double_first_octave; },
+            "SIFT's first octave at twice the image's resolution (OpenCV's, Lowe's); false: at "
+            "its own, about a third of the time, fewer small features")
         .add(
             "dim_frame_gain_target",
             [](auto& p) -> auto& { return p.frontend.sift.gain_target_level; }, InRange{0, 255},

@@ -182,6 +182,49 @@ TEST(FeatureExtractor, UndistortInvertsOpenCvProjection) {
   EXPECT_THROW(FeatureExtractor(kK, {0.1, 0.2, 0.3}), std::invalid_argument);
 }
 
+// Without the doubled first octave (SiftParams::double_first_octave false)
+// SIFT runs on the halved image and its keypoints are mapped back: blobs at
+// known sub-pixel positions are found where they are, at the scale the
+// doubled octave gives them, in both modes (a wrong mapping, say 2c + 0.5
+// instead of 2c, misplaces every keypoint by half a pixel).
+TEST(FeatureExtractor, WithoutTheDoubledOctaveKeypointsStayOnTheImagesPixels) {
+  cv::Mat image(240, 320, CV_8UC1, cv::Scalar(30));
+  std::vector<cv::Point2d> blobs;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 6; ++c) blobs.emplace_back(30.3 + 52.0 * c + 0.1 * r, 33.7 + 55.0 * r);
+  const double sigma = 4.0;
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      double v = 30;
+      for (const auto& b : blobs)
+        v += 200 * std::exp(-((x - b.x) * (x - b.x) + (y - b.y) * (y - b.y)) / (2 * sigma * sigma));
+      image.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(v);
+    }
+  }
+  Features doubled, own;
+  FeatureExtractor(kK, kDist).extract(image, &doubled);
+  SiftParams halved;
+  halved.double_first_octave = false;
+  FeatureExtractor(kK, kDist, halved).extract(image, &own);
+  const auto nearest = [](const Features& f, const cv::Point2d& p) {
+    const cv::KeyPoint* best = nullptr;
+    for (const auto& k : f.keypoints)
+      if (!best || cv::norm(cv::Point2d(k.pt) - p) < cv::norm(cv::Point2d(best->pt) - p)) best = &k;
+    return best;
+  };
+  for (const auto& b : blobs) {
+    const cv::KeyPoint* d = nearest(doubled, b);
+    const cv::KeyPoint* o = nearest(own, b);
+    ASSERT_TRUE(d && o);
+    // OpenCV 4.6's doubled octave: a quarter pixel right and down.
+    EXPECT_LT(cv::norm(cv::Point2d(d->pt) - b - cv::Point2d(0.25, 0.25)), 0.1) << b << d->pt;
+    EXPECT_LT(cv::norm(cv::Point2d(o->pt) - b), 0.1) << b << o->pt;
+    EXPECT_NEAR(o->size / d->size, 1.0, 0.15) << b;
+  }
+  ASSERT_EQ(own.normalized.size(), own.keypoints.size());
+  EXPECT_EQ(own.descriptors.rows, static_cast<int>(own.keypoints.size()));
+}
+
 // ---------------------------------------------------------------- matching
 
 cv::Mat randomDescriptors(int rows, std::mt19937* rng) {
