@@ -463,18 +463,20 @@ void AppearanceStage::onTimer(Utime now) {
   }
   if (params_.map_save && params_.map_save_period_s > 0 &&
       toSeconds(now - last_map_save_) >= params_.map_save_period_s) {
-    if (last_map_save_ != 0) saveMap();
+    if (last_map_save_ != 0) saveMap(/*periodic=*/true);
     last_map_save_ = now;
   }
 }
 
-void AppearanceStage::saveMap() {
+void AppearanceStage::saveMap(bool periodic) {
   if (!params_.map_save || params_.map_file.empty() || !slam_.initialized()) return;
   try {
     const auto map = slam_.bestMap(cameraNames());
     appearance::saveMap(params_.map_file, map);
-    log::info("saved appearance map (", map.states.size(), " states) to ",
-              params_.map_file.string());
+    // Every few seconds while the robot runs: at debug level, not a log line each time.
+    log::write(periodic ? log::Level::kDebug : log::Level::kInfo,
+               "saved appearance map (" + std::to_string(map.states.size()) + " states) to " +
+                   params_.map_file.string());
   } catch (const std::exception& e) {
     log::error("cannot save the appearance map: ", e.what());
   }

@@ -49,7 +49,7 @@ struct AppearanceParams {
   std::filesystem::path map_file;  // empty: no persistence
   bool map_load = false;
   bool map_save = false;
-  double map_save_period_s = 30.0;  // 0: only at shutdown
+  double map_save_period_s = 10.0;  // 0: only at shutdown
 
   // The keys of the block, declared once (config/param_table.hpp).
   static const config::ParamTable<AppearanceParams>& table();
@@ -84,7 +84,7 @@ class AppearanceStage final : public bus::Stage {
   void takeSnapshot();
   void publishStep(const appearance::StepResult& r, Utime utime, double seconds);
   void publishMap(Utime now);
-  void saveMap();
+  void saveMap(bool periodic = false);  // periodic: logged at debug level
   std::vector<std::string> cameraNames() const;
 
   AppearanceParams params_;
