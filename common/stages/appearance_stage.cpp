@@ -463,7 +463,8 @@ void AppearanceStage::onTimer(Utime now) {
   }
   if (params_.map_save && params_.map_save_period_s > 0 &&
       toSeconds(now - last_map_save_) >= params_.map_save_period_s) {
-    if (last_map_save_ != 0) saveMap(/*periodic=*/true);
+    // A robot standing still does not rewrite its map (flash wears).
+    if (last_map_save_ != 0 && steps_total_ != saved_steps_) saveMap(/*periodic=*/true);
     last_map_save_ = now;
   }
 }
@@ -473,6 +474,7 @@ void AppearanceStage::saveMap(bool periodic) {
   try {
     const auto map = slam_.bestMap(cameraNames());
     appearance::saveMap(params_.map_file, map);
+    saved_steps_ = steps_total_;
     // Every few seconds while the robot runs: at debug level, not a log line each time.
     log::write(periodic ? log::Level::kDebug : log::Level::kInfo,
                "saved appearance map (" + std::to_string(map.states.size()) + " states) to " +

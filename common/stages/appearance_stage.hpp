@@ -104,6 +104,7 @@ class AppearanceStage final : public bus::Stage {
   int64_t map_published_step_ = -1;
   Utime last_map_publish_ = 0;
   Utime last_map_save_ = 0;
+  int64_t saved_steps_ = -1;  // steps_total_ at the last save: an unchanged map is not rewritten
   bool map_dirty_ = false;
   bool loaded_map_ = false;
   // Health, per period.
