@@ -81,9 +81,9 @@ void secondRunStartsInTheSavedMap(const fs::path& scratch) {
   const fs::path dir = scratch / "map";
   fs::create_directories(dir);
   const auto stack = configWithMap(dir, dir / "appearance.map");
+  // The periodic saves are logged at debug level.
   const vslam::log::Level level = vslam::log::minLevel();
-  vslam::log::setMinLevel(
-      vslam::log::Level::kDebug);  // the periodic saves are logged at debug level
+  vslam::log::setMinLevel(vslam::log::Level::kDebug);
   testing::internal::CaptureStderr();
   replayAppearance(stack, scratch / "sim.lcmlog", dir / "first.lcmlog");
   const std::string said = testing::internal::GetCapturedStderr();
