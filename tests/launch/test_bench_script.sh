@@ -34,13 +34,9 @@ PY
   --compare "$work/a.json" >"$work/b.out" 2>&1 || fail "--compare exited $?: $(cat "$work/b.out")"
 grep -q "| before | after / before |" "$work/b.out" || fail "--compare: no before column: $(cat "$work/b.out")"
 
-expect_usage_error() {  # WANTED-TEXT ARGS...: exit 2 and WANTED-TEXT on stderr
-  local want=$1 status=0
-  shift
-  "$bench" "$@" >"$work/out" 2>"$work/err" || status=$?
-  [ "$status" -eq 2 ] || fail "'$*' exited $status, not 2: $(cat "$work/err")"
-  grep -q -- "$want" "$work/err" || fail "'$*' did not say '$want': $(cat "$work/err")"
-}
+# shellcheck source=usage_error.sh
+. "$(dirname "$0")/usage_error.sh"
+script=$bench
 expect_usage_error "unknown figure(s) sift" --only sift
 expect_usage_error "no such log" --replay "$work/none.lcmlog"
 expect_usage_error "not a scripts/bench JSON file" --compare "$work/a.out"

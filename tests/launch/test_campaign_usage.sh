@@ -19,13 +19,9 @@ for option in --scenario --kills --seed --speed --groups --gap --out --report --
   grep -q -- "$option" <<<"$out" || fail "--help does not mention $option"
 done
 
-expect_usage_error() {  # WANTED-TEXT ARGS...: exit 2 and WANTED-TEXT on stderr
-  local want=$1 status=0
-  shift
-  "${script:-$campaign}" "$@" >"$work/out" 2>"$work/err" || status=$?
-  [ "$status" -eq 2 ] || fail "'$*' exited $status, not 2: $(cat "$work/err")"
-  grep -q -- "$want" "$work/err" || fail "'$*' did not say '$want': $(cat "$work/err")"
-}
+# shellcheck source=usage_error.sh
+. "$(dirname "$0")/usage_error.sh"
+script=$campaign
 expect_usage_error "unknown kind 'camera'" --groups 'backend;camera' --out "$work/c"
 expect_usage_error "--gap expects MIN,MAX" --gap 5 --out "$work/c"
 expect_usage_error "--gap expects MIN,MAX" --gap 5,1 --out "$work/c"
