@@ -33,11 +33,14 @@ LandmarkEstimate initializeLandmark(const Pose2& s, const Pose2& y, const Eigen:
 
 Innovation innovation(const LandmarkEstimate& lm, const Pose2& s, const Pose2& y,
                       const Eigen::Matrix3d& r) {
+  // predictMeasurement(s, phi) with one sine and cosine (this is the
+  // filter's inner loop: twice per particle and measurement).
   const Pose2 phi = toPose(lm.mean);
-  const Pose2 predicted = predictMeasurement(s, phi);
+  const double c = std::cos(phi.theta), sn = std::sin(phi.theta);
+  const double dx = s.x - phi.x, dy = s.y - phi.y;
+  const Pose2 predicted{c * dx + sn * dy, -sn * dx + c * dy, wrapAngle(s.theta - phi.theta)};
   Innovation in;
   in.nu = {y.x - predicted.x, y.y - predicted.y, wrapAngle(y.theta - predicted.theta)};
-  const double c = std::cos(phi.theta), sn = std::sin(phi.theta);
   in.h << -c, -sn, predicted.y,  //
       sn, -c, -predicted.x,      //
       0, 0, -1;

@@ -259,7 +259,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const std::vector<double> log_w = normalizedLogWeights();
 
   // (1) How well do the particles, as they are, explain the measurement?
-  const double agreement = agreementWith(slot, obs, r, log_w);
+  const double agreement = agreementWith(slot, obs, r, log_w, &innovations_);
 
   // (2) Mode: kidnap detection and recovery, the dynamic ratio.
   UpdateReport rep;
@@ -277,7 +277,9 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
               : static_cast<uint64_t>(std::min<double>(static_cast<double>(m),
                                                        std::round(ratio * static_cast<double>(m))));
   // (3) Sample, weight, and update each particle's Kalman filter of the landmark.
-  rep.num_outliers = drawAndWeigh(slot, y, r, log_w, n_dual, all_dual, k);
+  // (A drift correction moved the particles: their innovations are new.)
+  rep.num_outliers = drawAndWeigh(slot, y, r, log_w, n_dual, all_dual, k,
+                                  rep.drift_corrected ? nullptr : &innovations_);
   normalize();
   rep.kind = all_dual ? UpdateKind::kKidnapped : UpdateKind::kMixture;
   if (kidnapped_ && confirmed_by_cluster) {
@@ -301,7 +303,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
 
 int ParticleFilter::drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Matrix3d& r,
                                  const std::vector<double>& log_w, uint64_t n_dual, bool all_dual,
-                                 uint64_t k) {
+                                 uint64_t k, const std::vector<Innovation>* prior_innovations) {
   const uint64_t seed = params_.seed;
   const size_t m = particles_.size();
   const MixtureParams& mix = params_.mixture;
@@ -337,14 +339,13 @@ int ParticleFilter::drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Mat
   forEachParticle([&](size_t i) {
     Particle& p = particles_[i];
     LandmarkEstimate& lm = p.map.mutableSlot(slot);
-    if (isDual(i)) {
+    p.dual = isDual(i);
+    if (p.dual) {
       RandomStream rng(seed, k, i, kDual);
       p.pose = sampleFromMeasurement(lm, y, chol_r, rng);
-      p.dual = true;
-    } else {
-      p.dual = false;
     }
-    const Innovation in = innovation(lm, p.pose, y, r);
+    const Innovation in = p.dual || prior_innovations == nullptr ? innovation(lm, p.pose, y, r)
+                                                                 : (*prior_innovations)[i];
     const double lp_y = robust_likelihood.log(in);  // target: robust likelihood
     if (all_dual) {
       p.log_weight = 0;  // kidnapped: uniform importance factors (paper 6.2)
@@ -463,14 +464,17 @@ std::vector<double> ParticleFilter::normalizedLogWeights() const {
 }
 
 double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
-                                     const Eigen::Matrix3d& r,
-                                     const std::vector<double>& log_w) const {
+                                     const Eigen::Matrix3d& r, const std::vector<double>& log_w,
+                                     std::vector<Innovation>* innovations) const {
   // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
   const size_t m = particles_.size();
   std::vector<double> d2(m);
+  if (innovations != nullptr) innovations->resize(m);
   forEachParticle([&](size_t i) {
     const LandmarkEstimate* lm = particles_[i].map.find(slot);
-    d2[i] = innovation(*lm, particles_[i].pose, obs.relative, r).mahalanobis_sq;
+    const Innovation in = innovation(*lm, particles_[i].pose, obs.relative, r);
+    d2[i] = in.mahalanobis_sq;
+    if (innovations != nullptr) (*innovations)[i] = in;
   });
   double agreement = 0;
   for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - 0.5 * d2[i]);

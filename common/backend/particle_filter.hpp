@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "backend/landmark_map.hpp"
+#include "backend/measurement_model.hpp"
 #include "odometry/motion_model.hpp"
 #include "odometry/pose2.hpp"
 
@@ -287,7 +288,8 @@ class ParticleFilter {
   FilterParams params_;
   std::unique_ptr<tbb::task_arena> arena_;
   std::vector<Particle> particles_;
-  std::vector<Particle> scratch_;  // resampling target, reused
+  std::vector<Particle> scratch_;        // resampling target, reused
+  std::vector<Innovation> innovations_;  // update()'s, from agreementWith to drawAndWeigh
   std::unordered_map<int64_t, uint32_t> slots_;
   std::vector<int64_t> ids_;
   uint64_t step_ = 0;  // counts predict/update/resample calls: the random streams' step
@@ -310,15 +312,20 @@ class ParticleFilter {
   // The particles' log weights, normalised so that their exponentials sum to 1.
   std::vector<double> normalizedLogWeights() const;
   // The particles' agreement with a measurement of the landmark in `slot`,
-  // given normalizedLogWeights().
+  // given normalizedLogWeights(); each particle's innovation into
+  // *innovations if given.
   double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
-                       const std::vector<double>& log_w) const;
+                       const std::vector<double>& log_w,
+                       std::vector<Innovation>* innovations = nullptr) const;
   // update()'s step 3, the mixture proposal: n_dual particles drawn from the
   // measurement (all if all_dual: uniform weights), the others kept from the
   // motion model, each weighed and its landmark's Kalman filter updated
-  // unless the measurement is an outlier for it. Returns the outliers.
+  // unless the measurement is an outlier for it. prior_innovations: the
+  // particles' innovations before the draw (agreementWith's), if they have
+  // not moved since. Returns the outliers.
   int drawAndWeigh(uint32_t slot, const Pose2& y, const Eigen::Matrix3d& r,
-                   const std::vector<double>& log_w, uint64_t n_dual, bool all_dual, uint64_t k);
+                   const std::vector<double>& log_w, uint64_t n_dual, bool all_dual, uint64_t k,
+                   const std::vector<Innovation>* prior_innovations);
   // The report of a measurement that changed no weight (a new landmark, or
   // one left unused while kidnapped).
   UpdateReport unweighedReport(UpdateKind kind, double agreement) const;

@@ -5,7 +5,8 @@ namespace vslam {
 
 // Wraps an angle to (-pi, pi].
 inline double wrapAngle(double a) {
-  a = std::remainder(a, 2.0 * M_PI);  // [-pi, pi]
+  if (a > -M_PI && a <= M_PI) return a;  // the usual case; std::remainder is slow
+  a = std::remainder(a, 2.0 * M_PI);     // [-pi, pi]
   return a <= -M_PI ? a + 2.0 * M_PI : a;
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "odometry/motion_model.hpp"
+#include "util/angles.hpp"
 #include "util/statistics.hpp"
 
 using vslam::OdometryIncrements;
@@ -28,6 +29,24 @@ TEST(Pose2, ComposeAndBetweenAreInverse) {
   // Wrapping across +-pi.
   const Pose2 wrapped = Pose2{0, 0, 3.0}.compose(Pose2{0, 0, 0.5});
   EXPECT_NEAR(wrapped.theta, 3.5 - 2 * M_PI, 1e-12);
+}
+
+TEST(Pose2, AnglesWrapToTheHalfOpenIntervalFromMinusPiToPi) {
+  // In range (the fast path) and beyond it (std::remainder) alike.
+  EXPECT_EQ(vslam::wrapAngle(M_PI), M_PI);
+  EXPECT_EQ(vslam::wrapAngle(-M_PI), M_PI);
+  EXPECT_EQ(vslam::wrapAngle(3 * M_PI), M_PI);
+  EXPECT_EQ(vslam::wrapAngle(0.25), 0.25);
+  EXPECT_EQ(vslam::wrapAngle(-0.25), -0.25);
+  EXPECT_NEAR(vslam::wrapAngle(0.25 + 2 * M_PI), 0.25, 1e-12);
+  EXPECT_NEAR(vslam::wrapAngle(-0.25 - 6 * M_PI), -0.25, 1e-12);
+  for (double a = -20.0; a <= 20.0; a += 0.37) {
+    const double w = vslam::wrapAngle(a);
+    EXPECT_GT(w, -M_PI);
+    EXPECT_LE(w, M_PI);
+    EXPECT_NEAR(std::cos(w), std::cos(a), 1e-12);
+    EXPECT_NEAR(std::sin(w), std::sin(a), 1e-12);
+  }
 }
 
 TEST(Pose2, InterpolationOfSamplesAndOfMotion) {
