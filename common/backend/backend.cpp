@@ -107,8 +107,12 @@ OdometryIncrements::Outcome Backend::addOdometry(const OdometryReading& reading)
       return outcome;
   }
   history_.push_back({reading, distance_m_, rotation_rad_});
-  if (graph_ && graph_->numNodes() == 0) {
-    // The map's origin: the filter's frame is the robot pose at start-up.
+  if (graph_ && graph_->numNodes() == 0 && !filter_.kidnapped()) {
+    // The graph's fixed first node: the filter's frame is the robot pose at
+    // start-up, or, starting in a saved map at an unknown pose, the map's
+    // frame once the filter has relocalized in it (until then its estimate
+    // is in no frame, and a node fixed there would drag the filter into one
+    // at the first correction).
     graph_->addNode(reading.utime, {reading.pose, distance_m_, rotation_rad_},
                     filter_.estimate().mean);
   }
