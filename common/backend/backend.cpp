@@ -186,6 +186,15 @@ void Backend::joinOrBreakAfterKidnap() {
   }
 }
 
+void Backend::loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmarks) {
+  if (graph_ && (graph_->numNodes() > 0 || graph_->numLandmarks() > 0))
+    throw std::logic_error("backend: a saved map is loaded before the run begins");
+  filter_.loadMap(landmarks);
+  if (!graph_) return;
+  for (const ParticleFilter::KnownLandmark& l : landmarks)
+    if (filter_.slotOf(l.id) >= 0) graph_->addMapLandmark(l.id, toPose(l.estimate.mean));
+}
+
 bool Backend::addLandmarkCreation(int64_t landmark_id, int64_t created_utime) {
   if (!graph_ || graph_->hasLandmark(landmark_id) || landmark_id < 0) return false;
   if (filter_.kidnapped()) {

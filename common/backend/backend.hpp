@@ -176,6 +176,10 @@ class Backend {
   // creation time is unknown or outside the odometry history stays out of
   // the pose graph (the filter still uses it). Returns whether it went in.
   bool addLandmarkCreation(int64_t landmark_id, int64_t created_utime);
+  // A saved map to continue in (ParticleFilter::loadMap); map correction
+  // keeps its landmarks where they are and ties the new path to them
+  // (PoseGraph::addMapLandmark). Before the first odometry.
+  void loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmarks);
 
   const ParticleFilter& filter() const { return filter_; }
   ParticleFilter& filter() { return filter_; }

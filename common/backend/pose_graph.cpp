@@ -234,6 +234,15 @@ void PoseGraph::addLandmark(int64_t landmark_id, int node) {
     ++nodes_[static_cast<size_t>(node)].landmarks;
 }
 
+void PoseGraph::addMapLandmark(int64_t landmark_id, const Pose2& pose) {
+  if (!pose.isFinite())
+    throw std::invalid_argument("pose graph: a map landmark's pose is not finite");
+  Landmark l{-1};
+  l.agreeing = std::max(1, params_.min_agreeing);  // the map is trusted, as the filter's prior
+  setPose(l.map_x, pose);
+  if (landmarks_.emplace(landmark_id, l).second) ++map_landmarks_;
+}
+
 PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(const OdometryAt& a,
                                                     const OdometryAt& b) const {
   const double d = std::abs(b.distance_m - a.distance_m);
@@ -252,6 +261,10 @@ bool PoseGraph::addMeasurement(int64_t landmark_id, int node, const Pose2& y) {
   if (!y.isFinite() || std::hypot(y.x, y.y) > params_.max_measurement_distance_m) return false;
   Landmark& l = it->second;
   if (l.creation_node == node) return false;  // a measurement at the creation time says nothing
+  if (l.creation_node < 0) {  // a map landmark: no creation odometry to gate it with
+    measurements_.push_back({landmark_id, l.creation_node, node, y});
+    return true;
+  }
   const Node& a = nodes_[static_cast<size_t>(l.creation_node)];
   const Node& b = nodes_[static_cast<size_t>(node)];
   if (params_.odometry_gate_mahalanobis_sq > 0 && a.segment == b.segment) {
@@ -309,7 +322,7 @@ PoseGraphSolveSummary PoseGraph::solve() {
     Node& n = nodes_[static_cast<size_t>(id)];
     problem.AddParameterBlock(n.x, 3);
     if (prev == nullptr || prev->segment != n.segment) {
-      if (n.segment == 0) {
+      if (n.segment == 0 && map_landmarks_ == 0) {
         problem.SetParameterBlockConstant(n.x);
       } else {
         problem.AddResidualBlock(
@@ -326,7 +339,14 @@ PoseGraphSolveSummary PoseGraph::solve() {
   }
   for (const Measurement& m : measurements_) {
     if (!trusted(m.landmark_id)) continue;
-    Node& a = nodes_[static_cast<size_t>(m.creation_node)];
+    double* a = nullptr;
+    if (m.creation_node >= 0) {
+      a = nodes_[static_cast<size_t>(m.creation_node)].x;
+    } else {
+      a = landmarks_.at(m.landmark_id).map_x;
+      problem.AddParameterBlock(a, 3);
+      problem.SetParameterBlockConstant(a);
+    }
     Node& b = nodes_[static_cast<size_t>(m.node)];
     const double d = std::hypot(m.y.x, m.y.y);
     const double sigma_xy = std::hypot(p.measurement_sigma_xy_m, p.measurement_sigma_xy_per_m * d);
@@ -338,7 +358,7 @@ PoseGraphSolveSummary PoseGraph::solve() {
     } else {
       loss = new ceres::HuberLoss(p.robust_sigmas);
     }
-    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a.x, b.x);
+    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a, b.x);
   }
 
   ceres::Solver::Options options;
@@ -387,13 +407,16 @@ Pose2 PoseGraph::nodePose(int node) const {
 std::optional<Pose2> PoseGraph::landmarkPose(int64_t landmark_id) const {
   const auto it = landmarks_.find(landmark_id);
   if (it == landmarks_.end()) return std::nullopt;
-  return nodePose(it->second.creation_node);
+  const Landmark& l = it->second;
+  return l.creation_node >= 0 ? nodePose(l.creation_node)
+                              : Pose2{l.map_x[0], l.map_x[1], l.map_x[2]};
 }
 
 std::vector<std::pair<int64_t, Pose2>> PoseGraph::landmarkPoses() const {
   std::vector<std::pair<int64_t, Pose2>> out;
   out.reserve(landmarks_.size());
-  for (const auto& [id, l] : landmarks_) out.emplace_back(id, nodePose(l.creation_node));
+  for (const auto& [id, l] : landmarks_)
+    if (l.creation_node >= 0) out.emplace_back(id, nodePose(l.creation_node));
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return out;
 }

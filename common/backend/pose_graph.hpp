@@ -133,6 +133,11 @@ class PoseGraph {
 
   // The landmark's pose is node `node`'s (its creation pose).
   void addLandmark(int64_t landmark_id, int node);
+  // A landmark of a saved map (a back-end started in it): its pose is given
+  // and stays, and its measurements tie the nodes to the map. A graph with
+  // such landmarks has no fixed node: the map fixes its frame, and its first
+  // node (where the filter relocalized) gets the weak segment prior.
+  void addMapLandmark(int64_t landmark_id, const Pose2& pose);
   bool hasLandmark(int64_t landmark_id) const { return landmarks_.count(landmark_id) > 0; }
   // y: the robot at node `node` in the landmark's frame. Returns false (and
   // adds nothing) for an unknown landmark or beyond max_measurement_distance_m.
@@ -157,7 +162,8 @@ class PoseGraph {
     return nodes_.at(static_cast<size_t>(node)).odometry;
   }
   std::optional<Pose2> landmarkPose(int64_t landmark_id) const;
-  // Landmark ids in increasing order, with their current poses.
+  // Landmark ids in increasing order, with their current poses (those the
+  // graph estimates: map landmarks stay where the map has them).
   std::vector<std::pair<int64_t, Pose2>> landmarkPoses() const;
   size_t numNodes() const { return by_time_.size(); }
   int64_t numNodesRemoved() const { return nodes_removed_; }
@@ -195,9 +201,10 @@ class PoseGraph {
     Pose2 y;
   };
   struct Landmark {
-    int creation_node;
-    int agreeing = 0;       // measurements within the odometry gate
-    int contradicting = 0;  // and beyond it
+    int creation_node;            // -1: a map landmark
+    int agreeing = 0;             // measurements within the odometry gate
+    int contradicting = 0;        // and beyond it
+    double map_x[3] = {0, 0, 0};  // a map landmark's pose (a constant Ceres block)
   };
   // Standard deviations of the odometry between two readings, as the motion
   // model: along-track noise growing with the distance d, the heading's
@@ -215,8 +222,9 @@ class PoseGraph {
 
   std::map<std::pair<int, int64_t>, int> by_time_;  // (segment, utime) -> node
   std::vector<int64_t> segment_start_{
-      std::numeric_limits<int64_t>::min()};  // segment k covers [start_k, start_k+1)
-  std::unordered_map<int64_t, Landmark> landmarks_;
+      std::numeric_limits<int64_t>::min()};          // segment k covers [start_k, start_k+1)
+  std::unordered_map<int64_t, Landmark> landmarks_;  // node-based: map_x stays put
+  size_t map_landmarks_ = 0;
   std::vector<Measurement> measurements_;
 };
 

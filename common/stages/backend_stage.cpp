@@ -417,7 +417,7 @@ void BackendStage::loadMapPrior() {
     e.num_observations = std::max(1, info.stats.num_accepted);
     known.push_back({info.id, e});
   }
-  backend_.filter().loadMap(known);
+  backend_.loadMap(known);
   prior_landmarks_ = known.size();
   if (params_.map_prior_unknown_start && !known.empty()) backend_.filter().startKidnapped();
   params_.database_id = store.databaseId();
