@@ -416,7 +416,7 @@ class Session {
       e.num_observations = 1;
       known.push_back({id, e});
     }
-    backend_->filter().loadMap(known);
+    backend_->loadMap(known);  // as the back-end stage loads a map prior
 
     // The scenario's odometry noise. The robot stands at the first held-out
     // frame; a pass starts with the second and ends with the first.
