@@ -392,6 +392,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   counters_.landmarks_initialized += u.kind == UpdateKind::kInitialized;
   counters_.kidnaps_detected += u.kidnap_detected;
   counters_.recoveries += u.recovered;
+  counters_.kidnaps_cancelled += u.cancelled;
   counters_.drift_corrections += u.drift_corrected;
   counters_.resamplings += u.resampled;
   if (u.kidnap_detected) deferred_.clear();

@@ -140,6 +140,7 @@ struct BackendCounters {
   int64_t landmarks_initialized = 0;
   int64_t kidnaps_detected = 0;
   int64_t recoveries = 0;
+  int64_t kidnaps_cancelled = 0;  // recoveries that went back to the pose before (look-alikes)
   int64_t drift_corrections = 0;  // evidence within the drift gate (KidnapParams)
   // Landmarks first seen while kidnapped, mapped at the relocalization from
   // their newest measurement carried by the odometry (UpdateReport::deferred).

@@ -19,7 +19,7 @@ namespace vslam::backend {
 namespace {
 
 // What each random stream is for (part of its seed).
-enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4 };
+enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4, kMotionBefore = 5 };
 
 // The newest measurements kept for the kidnap and relocalization tests:
 // their cost must not grow with a long run of inconsistent measurements
@@ -42,6 +42,17 @@ double logSumExp(const double* v, size_t n) {
   double s = 0;
   for (size_t i = 0; i < n; ++i) s += std::exp(v[i] - m);
   return m + std::log(s);
+}
+
+// The particles' log weights, normalised so that their exponentials sum to
+// 1: in the log domain, as plain numbers they may underflow when the
+// particles disagree with the measurements.
+std::vector<double> normalizedLogWeightsOf(const std::vector<Particle>& particles) {
+  std::vector<double> log_w(particles.size());
+  for (size_t i = 0; i < log_w.size(); ++i) log_w[i] = particles[i].log_weight;
+  const double lse = logSumExp(log_w.data(), log_w.size());
+  for (double& v : log_w) v -= lse;
+  return log_w;
 }
 
 void require(bool ok, const std::string& what) {
@@ -129,8 +140,8 @@ void FilterParams::validate() const {
   require(kidnap.detect_count >= 1 && kidnap.recover_count >= 1 && kidnap.detect_landmarks >= 1 &&
               kidnap.recover_landmarks >= 1,
           "kidnap counts must be >= 1");
-  require(kidnap.detect_min_span_s >= 0 && kidnap.suspect_after >= 0,
-          "kidnap detect_min_span_s and suspect_after must be >= 0");
+  require(kidnap.detect_min_span_s >= 0 && kidnap.suspect_after >= 0 && kidnap.cancel_count >= 0,
+          "kidnap detect_min_span_s, suspect_after and cancel_count must be >= 0");
   require(kidnap.cluster_xy_m > 0 && kidnap.cluster_theta_rad > 0,
           "kidnap cluster tolerances must be > 0");
   require(outlier.probability >= 0 && outlier.probability < 1,
@@ -163,7 +174,11 @@ ParticleFilter::~ParticleFilter() = default;
 
 template <class F>
 void ParticleFilter::forEachParticle(F&& f) const {
-  const size_t m = particles_.size();
+  forEachIndex(particles_.size(), std::forward<F>(f));
+}
+
+template <class F>
+void ParticleFilter::forEachIndex(size_t m, F&& f) const {
   const size_t grain = static_cast<size_t>(params_.grain_size);
   if (m <= grain || params_.num_threads == 1) {
     for (size_t i = 0; i < m; ++i) f(i);
@@ -195,6 +210,14 @@ void ParticleFilter::predict(const Pose2& step) {
     const double nt = rng.normal();
     const double nr = rng.normal();
     particles_[i].pose = particles_[i].pose.compose(noise.perturb(step, nt, nr));
+  });
+  if (before_kidnap_.empty()) return;
+  before_kidnap_since_update_.apply(step, noise.stepCovariance(step));
+  forEachIndex(before_kidnap_.size(), [&](size_t i) {
+    RandomStream rng(seed, k, i, kMotionBefore);
+    const double nt = rng.normal();
+    const double nr = rng.normal();
+    before_kidnap_[i].pose = before_kidnap_[i].pose.compose(noise.perturb(step, nt, nr));
   });
 }
 
@@ -250,6 +273,10 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     rep.suspect = true;
     return rep;
   }
+  // While kidnapped, does it agree with the hypothesis the kidnapping
+  // replaced? Then it was a look-alike's, and this measurement updates
+  // that hypothesis as usual.
+  const bool cancelled = kidnapped_ && cancelKidnapping(slot, obs, r);
   const uint64_t k = step_++;
   const size_t m = particles_.size();
   const Pose2 y = obs.relative;
@@ -265,6 +292,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   UpdateReport rep;
   rep.agreement = agreement;
   rep.suspect = suspect;
+  rep.recovered = rep.cancelled = cancelled;
   const MixtureParams& mix = params_.mixture;
   bool confirmed_by_cluster = false;
   const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
@@ -288,6 +316,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     recover_count_ = 0;
     recover_landmarks_.clear();
   }
+  if (!kidnapped_) forgetBeforeKidnap();
   if (!kidnapped_) reloc_run_.clear();
   rep.num_dual = static_cast<int>(n_dual);
   rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
@@ -428,6 +457,10 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       rep->jump = {evidence->x - from.x, evidence->y - from.y,
                    wrapAngle(evidence->theta - from.theta)};
       rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
+      std::vector<uint32_t> evidence_slots;
+      for (const Implied& l : low_run_)
+        if (std::find(evidence_slots.begin(), evidence_slots.end(), l.slot) == evidence_slots.end())
+          evidence_slots.push_back(l.slot);
       low_run_.clear();
       if (kp.drift_gate_mahalanobis_sq > 0 &&
           rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
@@ -439,6 +472,12 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       } else {
         held_ = from;  // published until the relocalization is confirmed
         kidnapped_ = true;
+        if (kp.cancel_count > 0) {
+          before_kidnap_ = particles_;  // shares every map: O(particles)
+          before_kidnap_since_update_ = since_update_;
+          kidnap_evidence_slots_ = std::move(evidence_slots);
+          before_kidnap_agreeing_ = 0;
+        }
         rep->kidnap_detected = true;
         reloc_run_.clear();
         recover_count_ = 0;
@@ -454,25 +493,54 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
 }
 
 std::vector<double> ParticleFilter::normalizedLogWeights() const {
-  // In the log domain: as plain numbers they may underflow when the
-  // particles disagree with the measurements.
-  std::vector<double> log_w(particles_.size());
-  for (size_t i = 0; i < log_w.size(); ++i) log_w[i] = particles_[i].log_weight;
-  const double lse = logSumExp(log_w.data(), log_w.size());
-  for (double& v : log_w) v -= lse;
-  return log_w;
+  return normalizedLogWeightsOf(particles_);
+}
+
+bool ParticleFilter::cancelKidnapping(uint32_t slot, const Observation& obs,
+                                      const Eigen::Matrix3d& r) {
+  const KidnapParams& kp = params_.kidnap;
+  if (kp.cancel_count <= 0 || before_kidnap_.empty() ||
+      before_kidnap_.front().map.find(slot) == nullptr)
+    return false;
+  const double agreement =
+      agreementWith(before_kidnap_, slot, obs, r, normalizedLogWeightsOf(before_kidnap_), nullptr);
+  if (agreement < kp.recover_agreement || ++before_kidnap_agreeing_ < kp.cancel_count) return false;
+  particles_.swap(before_kidnap_);
+  since_update_ = before_kidnap_since_update_;
+  kidnapped_ = false;
+  // The landmarks that declared it were seen where they are not.
+  for (uint32_t s : kidnap_evidence_slots_) record(s).contradicted += 1;
+  low_run_.clear();
+  reloc_run_.clear();
+  recover_count_ = 0;
+  recover_landmarks_.clear();
+  forgetBeforeKidnap();
+  return true;
+}
+
+void ParticleFilter::forgetBeforeKidnap() {
+  before_kidnap_.clear();
+  kidnap_evidence_slots_.clear();
+  before_kidnap_agreeing_ = 0;
 }
 
 double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
                                      const Eigen::Matrix3d& r, const std::vector<double>& log_w,
                                      std::vector<Innovation>* innovations) const {
+  return agreementWith(particles_, slot, obs, r, log_w, innovations);
+}
+
+double ParticleFilter::agreementWith(const std::vector<Particle>& particles, uint32_t slot,
+                                     const Observation& obs, const Eigen::Matrix3d& r,
+                                     const std::vector<double>& log_w,
+                                     std::vector<Innovation>* innovations) const {
   // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
-  const size_t m = particles_.size();
+  const size_t m = particles.size();
   std::vector<double> d2(m);
   if (innovations != nullptr) innovations->resize(m);
-  forEachParticle([&](size_t i) {
-    const LandmarkEstimate* lm = particles_[i].map.find(slot);
-    const Innovation in = innovation(*lm, particles_[i].pose, obs.relative, r);
+  forEachIndex(m, [&](size_t i) {
+    const LandmarkEstimate* lm = particles[i].map.find(slot);
+    const Innovation in = innovation(*lm, particles[i].pose, obs.relative, r);
     d2[i] = in.mahalanobis_sq;
     if (innovations != nullptr) (*innovations)[i] = in;
   });
@@ -592,6 +660,7 @@ void ParticleFilter::setMotionNoise(const MotionNoise& noise) {
 void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;
+  forgetBeforeKidnap();  // no hypothesis to go back to
   low_run_.clear();
   reloc_run_.clear();
   recover_count_ = 0;
@@ -663,6 +732,7 @@ void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
   ids_.clear();
   records_.clear();
   low_run_.clear();
+  forgetBeforeKidnap();
   LandmarkMap map;
   for (const KnownLandmark& l : landmarks) {
     if (l.estimate.num_observations < 1 || !l.estimate.mean.allFinite() ||

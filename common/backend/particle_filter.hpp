@@ -121,6 +121,16 @@ struct KidnapParams {
   // drift_gate_mahalanobis_sq. 0: every such evidence is a kidnapping.
   double drift_gate_mahalanobis_sq = 0.0;
   double drift_sigma_scale = 1.0;
+  // The hypothesis a kidnapping replaced stays alive until it is resolved:
+  // the particles as they were when it was declared, carried by the
+  // odometry with the motion model's noise. A kidnapping is rare and a
+  // repeated pattern is not, so cancel_count measurements (of landmarks
+  // mapped before it, not look-alikes) that agree with that hypothesis
+  // (a >= recover_agreement), before a relocalization is confirmed, cancel
+  // the kidnapping: the filter goes on from those particles, and the
+  // landmarks whose measurements declared it count as contradicted. Not
+  // after startKidnapped() (there is no such hypothesis). 0: never.
+  int cancel_count = 0;
 };
 
 struct FilterParams {
@@ -188,6 +198,7 @@ struct UpdateReport {
   double jump_mahalanobis_sq = 0;
   bool drift_corrected = false;
   bool recovered = false;  // this measurement ended one
+  bool cancelled = false;  // ...by agreeing with the pose before it (KidnapParams::cancel_count)
   bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
   bool deferred = false;   // first seen while kidnapped: not mapped until the relocalization
 };
@@ -282,6 +293,8 @@ class ParticleFilter {
  private:
   template <class F>
   void forEachParticle(F&& f) const;
+  template <class F>
+  void forEachIndex(size_t m, F&& f) const;
   UpdateReport initialize(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r);
   void normalize();
 
@@ -317,6 +330,16 @@ class ParticleFilter {
   double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
                        const std::vector<double>& log_w,
                        std::vector<Innovation>* innovations = nullptr) const;
+  // The same for another particle set (the hypothesis a kidnapping replaced).
+  double agreementWith(const std::vector<Particle>& particles, uint32_t slot,
+                       const Observation& obs, const Eigen::Matrix3d& r,
+                       const std::vector<double>& log_w,
+                       std::vector<Innovation>* innovations) const;
+  // While kidnapped: does this measurement cancel the kidnapping
+  // (KidnapParams::cancel_count)? If so, the particles are the hypothesis
+  // it replaced again.
+  bool cancelKidnapping(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r);
+  void forgetBeforeKidnap();
   // update()'s step 3, the mixture proposal: n_dual particles drawn from the
   // measurement (all if all_dual: uniform weights), the others kept from the
   // motion model, each weighed and its landmark's Kalman filter updated
@@ -361,6 +384,14 @@ class ParticleFilter {
   std::vector<int64_t> recover_landmarks_;  // distinct landmarks in the recovering run
   Pose2 odometry_;                          // the predict steps composed: the run's own frame
   Pose2 held_;                              // published while kidnapped
+  // While kidnapped (not after startKidnapped): the particles when it was
+  // declared, carried by the odometry; the odometry since their last update;
+  // the landmarks whose measurements declared it; the measurements that
+  // agreed with them since.
+  std::vector<Particle> before_kidnap_;
+  PoseWithCovariance before_kidnap_since_update_;
+  std::vector<uint32_t> kidnap_evidence_slots_;
+  int before_kidnap_agreeing_ = 0;
   double smoothed_agreement_ = 1;
   double last_dual_ratio_ = 0;
   PoseWithCovariance since_update_;  // odometry since the previous update, anchor frame

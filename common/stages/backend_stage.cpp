@@ -106,7 +106,11 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "evidence of a pose within this squared Mahalanobis distance of the estimate is drift: "
            "the particles move onto it, no kidnapping; 0: every such evidence is a kidnapping")
       .add("drift_sigma_scale", &K::drift_sigma_scale, InRange{1e-3, 1000}, "",
-           "...under this scale² × the particles' covariance + Σ_vis");
+           "...under this scale² × the particles' covariance + Σ_vis")
+      .add("cancel_count", &K::cancel_count, InRange{0, 1000}, "",
+           "while kidnapped, this many measurements that agree with the particles as they were "
+           "when it was declared (carried by the odometry) cancel it: look-alikes declared it; "
+           "0: never");
   return t;
 }
 
@@ -551,7 +555,12 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                   msg.camera, " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement,
                   "): sampling all particles from the measurements");
       }
-      if (r.update.recovered) {
+      if (r.update.cancelled) {
+        log::info("kidnapping cancelled at t ", msg.utime, ", measurement ", msg.seq, " of ",
+                  msg.camera, " (landmark ", msg.landmark_id,
+                  "): measurements agree with the pose before it; the landmarks that declared it "
+                  "were look-alikes");
+      } else if (r.update.recovered) {
         log::info("relocalized at t ", msg.utime, ", measurement ", msg.seq, " of ", msg.camera,
                   " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
       }
@@ -693,6 +702,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("kidnapped", e.kidnapped ? 1.0 : 0.0);
   report.add("kidnaps_detected", static_cast<double>(c.kidnaps_detected), "count");
   report.add("recoveries", static_cast<double>(c.recoveries), "count");
+  report.add("kidnaps_cancelled", static_cast<double>(c.kidnaps_cancelled), "count");
   report.add("drift_corrections", static_cast<double>(c.drift_corrections), "count");
   report.add("landmarks_mapped_after_relocalization",
              static_cast<double>(c.landmarks_mapped_after_relocalization), "count");

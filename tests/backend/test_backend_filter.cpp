@@ -675,6 +675,7 @@ FilterParams homeParams(int particles) {
   p.kidnap.suspect_after = 2;
   p.kidnap.recover_landmarks = 2;
   p.kidnap.recover_window_s = 10.0;
+  p.kidnap.cancel_count = 2;
   return p;
 }
 
@@ -1016,4 +1017,50 @@ TEST(ParticleFilter, LandmarksFirstSeenWhileKidnappedDoNotConfirmARelocalization
   // Once relocalized, a new landmark is mapped at its first measurement.
   EXPECT_EQ(pf.update(at(5, {0.5, 0, 0}, 9)).kind, UpdateKind::kInitialized);
   EXPECT_EQ(pf.numLandmarks(), 3u);
+}
+
+TEST(ParticleFilter, AKidnappingThatLookAlikesDeclaredIsCancelledByTheHypothesisItReplaced) {
+  // Landmarks 1 and 2 are recognised on a look-alike wall: both put the
+  // standing robot 3 m back, in agreement, for 2.5 s: a kidnapping. Then
+  // landmark 3, mapped before it, is measured where the robot really is,
+  // twice: the hypothesis the kidnapping replaced explains it, so the
+  // kidnapping is cancelled and the filter goes on from there. Without that
+  // (cancel_count 0) the filter stays kidnapped: one landmark cannot confirm
+  // a relocalization.
+  const auto at = observationAt;
+  auto run = [&](int cancel_count, std::vector<UpdateReport>* after) {
+    FilterParams p = homeParams(100);
+    p.kidnap.cancel_count = cancel_count;
+    auto pf = std::make_unique<ParticleFilter>(p);
+    pf->update(at(1, {1, 0, 0}, 0));   // landmark 1 at (-1, 0, 0)
+    pf->update(at(2, {0, 1, 0}, 0));   // landmark 2 at (0, -1, 0)
+    pf->update(at(3, {0, -1, 0}, 0));  // landmark 3 at (0, 1, 0)
+    int kidnaps = 0;
+    for (int k = 1; k <= 5; ++k) {
+      const double s = 0.5 * k;
+      kidnaps += pf->update(k % 2 ? at(1, {-2, 0, 0}, s) : at(2, {-3, 1, 0}, s)).kidnap_detected;
+    }
+    EXPECT_EQ(kidnaps, 1);
+    EXPECT_TRUE(pf->kidnapped());
+    for (int k = 0; k < 2; ++k) after->push_back(pf->update(at(3, {0, -1, 0}, 3 + 0.5 * k)));
+    return pf;
+  };
+  std::vector<UpdateReport> reports;
+  const auto pf = run(2, &reports);
+  EXPECT_FALSE(reports[0].recovered);
+  EXPECT_TRUE(reports[1].recovered);
+  EXPECT_TRUE(reports[1].cancelled);
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, 0.0, 0.05);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.05);
+  // The landmarks that declared it were contradicted: a second such run,
+  // ended by landmark 3, makes them known look-alikes (suspect_after 2).
+  for (int k = 1; k <= 2; ++k) pf->update(at(k, k == 1 ? Pose2{-2, 0, 0} : Pose2{-3, 1, 0}, 4 + k));
+  pf->update(at(3, {0, -1, 0}, 7));
+  EXPECT_EQ(pf->numSuspectLandmarks(), 2u);
+
+  reports.clear();
+  const auto without = run(0, &reports);  // the control
+  for (const UpdateReport& r : reports) EXPECT_FALSE(r.recovered);
+  EXPECT_TRUE(without->kidnapped());
 }

@@ -89,6 +89,8 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"backend.kidnap.drift_gate_mahalanobis_sq",
        "drift or kidnapping (commit 5553833; the paper has none)"},
       {"backend.kidnap.drift_sigma_scale", "the motion model's sigmas are a guess"},
+      {"backend.kidnap.cancel_count",
+       "look-alikes that declared a kidnapping (tuning home 23; the paper has none)"},
       {"backend.map_correction.enabled",
        "map correction (commit 42605d4; the paper has the filter alone)"},
       {"backend.map_correction.solve_interval_s", "map correction (commit 42605d4)"},
