@@ -808,6 +808,16 @@ Observation observationAt(int64_t id, const Pose2& y, double seconds) {
   return o;
 }
 
+// A filter that has mapped landmarks 1 and 2 at (-1, 0, 0) and (0, -1, 0),
+// and landmark 3 where `y3` puts it, all from the start pose at t = 0.
+std::unique_ptr<ParticleFilter> filterWithThreeLandmarks(const FilterParams& p, const Pose2& y3) {
+  auto pf = std::make_unique<ParticleFilter>(p);
+  pf->update(observationAt(1, {1, 0, 0}, 0));
+  pf->update(observationAt(2, {0, 1, 0}, 0));
+  pf->update(observationAt(3, y3, 0));
+  return pf;
+}
+
 }  // namespace
 
 TEST(ParticleFilter, TwoLandmarksAgreeingOnAPoseConfirmARelocalizationEvenWithAnOutlierBetween) {
@@ -819,10 +829,7 @@ TEST(ParticleFilter, TwoLandmarksAgreeingOnAPoseConfirmARelocalizationEvenWithAn
   auto run = [&](double window_s, std::vector<UpdateReport>* reports) {
     FilterParams p = homeParams(50);
     p.kidnap.recover_window_s = window_s;
-    auto pf = std::make_unique<ParticleFilter>(p);
-    pf->update(at(1, {1, 0, 0}, 0));
-    pf->update(at(2, {0, 1, 0}, 0));
-    pf->update(at(3, {-3, -3, 0}, 0));
+    auto pf = filterWithThreeLandmarks(p, {-3, -3, 0});
     pf->startKidnapped();
     reports->push_back(pf->update(at(1, {-2, 0, 0}, 1)));
     reports->push_back(pf->update(at(3, {2, 2, 0}, 2)));
@@ -966,16 +973,13 @@ TEST(ParticleFilter, AConsistentMeasurementLeftUnusedStillEndsARunOfLookAlikes) 
   auto run = [&](bool note_unused) {
     FilterParams p = homeParams(100);
     p.kidnap.suspect_after = 0;
-    ParticleFilter pf(p);
-    pf.update(at(1, {1, 0, 0}, 0));   // landmark 1 at (-1, 0, 0)
-    pf.update(at(2, {0, 1, 0}, 0));   // landmark 2 at (0, -1, 0)
-    pf.update(at(3, {0, -1, 0}, 0));  // landmark 3 at (0, 1, 0)
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
     int kidnaps = 0;
     for (int k = 1; k <= 12; ++k) {
       const double s = 0.5 * k;
-      kidnaps += pf.update(k % 2 ? at(1, {-2, 0, 0}, s) : at(2, {-3, 1, 0}, s)).kidnap_detected;
+      kidnaps += pf->update(k % 2 ? at(1, {-2, 0, 0}, s) : at(2, {-3, 1, 0}, s)).kidnap_detected;
       if (note_unused) {
-        EXPECT_GT(pf.noteUnused(at(3, {0, -1, 0}, s + 0.25)), 0.5);
+        EXPECT_GT(pf->noteUnused(at(3, {0, -1, 0}, s + 0.25)), 0.5);
       }
     }
     return kidnaps;
@@ -1031,10 +1035,7 @@ TEST(ParticleFilter, AKidnappingThatLookAlikesDeclaredIsCancelledByTheHypothesis
   auto run = [&](int cancel_count, std::vector<UpdateReport>* after) {
     FilterParams p = homeParams(100);
     p.kidnap.cancel_count = cancel_count;
-    auto pf = std::make_unique<ParticleFilter>(p);
-    pf->update(at(1, {1, 0, 0}, 0));   // landmark 1 at (-1, 0, 0)
-    pf->update(at(2, {0, 1, 0}, 0));   // landmark 2 at (0, -1, 0)
-    pf->update(at(3, {0, -1, 0}, 0));  // landmark 3 at (0, 1, 0)
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
     int kidnaps = 0;
     for (int k = 1; k <= 5; ++k) {
       const double s = 0.5 * k;
