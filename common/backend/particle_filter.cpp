@@ -316,8 +316,10 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     recover_count_ = 0;
     recover_landmarks_.clear();
   }
-  if (!kidnapped_) forgetBeforeKidnap();
-  if (!kidnapped_) reloc_run_.clear();
+  if (!kidnapped_) {
+    reloc_run_.clear();
+    forgetBeforeKidnap();
+  }
   rep.num_dual = static_cast<int>(n_dual);
   rep.dual_ratio = static_cast<double>(n_dual) / static_cast<double>(m);
   rep.smoothed_agreement = smoothed_agreement_;
@@ -457,11 +459,6 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       rep->jump = {evidence->x - from.x, evidence->y - from.y,
                    wrapAngle(evidence->theta - from.theta)};
       rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
-      std::vector<uint32_t> evidence_slots;
-      for (const Implied& l : low_run_)
-        if (std::find(evidence_slots.begin(), evidence_slots.end(), l.slot) == evidence_slots.end())
-          evidence_slots.push_back(l.slot);
-      low_run_.clear();
       if (kp.drift_gate_mahalanobis_sq > 0 &&
           rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
         // Drift: every particle moves by the jump (keeping its spread and
@@ -475,7 +472,11 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         if (kp.cancel_count > 0) {
           before_kidnap_ = particles_;  // shares every map: O(particles)
           before_kidnap_since_update_ = since_update_;
-          kidnap_evidence_slots_ = std::move(evidence_slots);
+          kidnap_evidence_slots_.clear();
+          for (const Implied& l : low_run_)
+            if (std::find(kidnap_evidence_slots_.begin(), kidnap_evidence_slots_.end(), l.slot) ==
+                kidnap_evidence_slots_.end())
+              kidnap_evidence_slots_.push_back(l.slot);
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
@@ -484,6 +485,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         recover_landmarks_.clear();
         all_dual = true;
       }
+      low_run_.clear();
     }
   }
   if (!all_dual) {
