@@ -1,0 +1,92 @@
+#!/usr/bin/python3
+"""scripts/benchmark-homes judges a start in a saved map in the map's frame.
+
+    tests/launch/test_benchmark_homes.py REPO_ROOT
+
+The map's frame is the SE(2) fit of its landmarks' poses onto the true robot
+positions at their creation times (map_frame). A map that is the truth turned
+and shifted, with a little noise, must give back that motion and a small rms;
+a map with fewer than 3 placed landmarks gives none (the script then falls
+back to the uninterrupted run's frame).
+"""
+import importlib.machinery
+import importlib.util
+import math
+import sqlite3
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+def load_script(root):
+    loader = importlib.machinery.SourceFileLoader("benchmark_homes",
+                                                  f"{root}/scripts/benchmark-homes")
+    spec = importlib.util.spec_from_loader("benchmark_homes", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def write_map(path, rows):
+    """A map file with the columns map_frame reads (the real schema has more)."""
+    with sqlite3.connect(path) as db:
+        db.execute("CREATE TABLE landmarks(landmark_id INTEGER PRIMARY KEY, "
+                   "created_utime INTEGER NOT NULL, map_x REAL, map_y REAL)")
+        db.executemany("INSERT INTO landmarks(created_utime, map_x, map_y) VALUES (?, ?, ?)",
+                       rows)
+
+
+def main():
+    bh = load_script(sys.argv[1])
+    failures = []
+    rng = np.random.default_rng(3)
+    # The truth: a robot driving a loop, 10 Hz.
+    ref_t = 1.7e9 + np.arange(0, 60, 0.1)
+    ref_p = np.stack([3 + 2 * np.cos(ref_t / 10), 4 + 1.5 * np.sin(ref_t / 10),
+                      np.zeros_like(ref_t)], axis=1)
+    # The map: landmarks made every 5 s, in a frame turned by 25 deg and
+    # shifted by (1, -2) from the truth's, each 2 cm off.
+    th = math.radians(25)
+    c, s = math.cos(th), math.sin(th)
+    created = np.arange(20, 600, 50)
+    truth = ref_p[created, :2]
+    to_map = truth - np.array([1.0, -2.0])
+    to_map = to_map @ np.array([[c, s], [-s, c]])  # turned by +25 deg: back is -25
+    to_map += rng.normal(0, 0.02, to_map.shape)
+    with tempfile.TemporaryDirectory() as tmp:
+        good = Path(tmp) / "good.vslam-map"
+        write_map(good, [(int(round(ref_t[k] * 1e6)), float(x), float(y))
+                         for k, (x, y) in zip(created, to_map)]
+                  + [(int(ref_t[5] * 1e6), None, None)])  # not placed: left out
+        found = bh.map_frame(good, ref_t, ref_p)
+        if found is None:
+            failures.append("a map of 12 placed landmarks gave no frame")
+        else:
+            R, t, rms, n = found
+            turn = math.degrees(math.atan2(R[1, 0], R[0, 0]))
+            if abs(turn + 25) > 1.0:
+                failures.append(f"the map's frame is turned back by {turn:.2f} deg, not -25")
+            back = (np.c_[to_map, np.zeros(len(to_map))] @ R.T + t)[:, :2]
+            worst = np.max(np.linalg.norm(back - truth, axis=1))
+            if worst > 0.08:
+                failures.append(f"landmarks {worst:.3f} m off the truth after the fit")
+            if not 0.005 < rms < 0.05:
+                failures.append(f"rms {rms:.4f} m for landmarks 2 cm off")
+            if n != len(created):
+                failures.append(f"{n} landmarks used, not the {len(created)} placed ones")
+        sparse = Path(tmp) / "sparse.vslam-map"
+        write_map(sparse, [(int(ref_t[k] * 1e6), float(x), float(y))
+                           for k, (x, y) in zip(created[:2], to_map[:2])])
+        if bh.map_frame(sparse, ref_t, ref_p) is not None:
+            failures.append("a map of 2 placed landmarks gave a frame")
+    for f in failures:
+        print("FAIL:", f)
+    if not failures:
+        print("ok: benchmark-homes judges starts in the map's frame")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
