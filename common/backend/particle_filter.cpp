@@ -115,6 +115,8 @@ const char* toString(UpdateKind k) {
       return "mixture";
     case UpdateKind::kKidnapped:
       return "kidnapped";
+    case UpdateKind::kInconsistent:
+      return "inconsistent";
   }
   return "?";
 }
@@ -296,6 +298,23 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const MixtureParams& mix = params_.mixture;
   bool confirmed_by_cluster = false;
   const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
+  // (With the robust likelihood.) A measurement the particles as a whole
+  // find inconsistent (below the kidnap test's detect_agreement) is a
+  // look-alike, a kidnapping, or drift the filter has not caught up with:
+  // the kidnap and drift tests above judge it, and it does not weigh the
+  // particles. Weighed, the few particles within its gate (the dual
+  // particles drawn at its implied pose, and any of the set's tail) would
+  // take all the weight, and the estimate would jump to them
+  // (docs/backend.md, "Inconsistent measurements").
+  if (params_.outlier.probability > 0 && !all_dual && !rep.drift_corrected &&
+      agreement < params_.kidnap.detect_agreement) {
+    rep.kind = UpdateKind::kInconsistent;
+    for (const Innovation& in : innovations_)
+      rep.num_outliers += in.mahalanobis_sq > params_.outlier.gate_mahalanobis_sq;
+    rep.smoothed_agreement = smoothed_agreement_;
+    rep.ess = effectiveSampleSize();
+    return rep;
+  }
   const double ratio = all_dual ? 1.0
                                 : mix.dual_ratio_min + (mix.dual_ratio_max - mix.dual_ratio_min) *
                                                            (1.0 - smoothed_agreement_);

@@ -77,7 +77,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
   using K = backend::KidnapParams;
   ParamTable<K> t;
   t.add("detect_agreement", &K::detect_agreement, InRange{0, 1}, "",
-        "a measurement agreeing less is \"inconsistent\"")
+        "a measurement agreeing less is \"inconsistent\": kidnap and drift evidence only, it "
+        "weighs no particle (with the robust likelihood)")
       .add("detect_count", &K::detect_count, InRange{1, 1000}, "",
            "inconsistent measurements in a row that declare a kidnapping")
       .add("recover_agreement", &K::recover_agreement, InRange{0, 1}, "",

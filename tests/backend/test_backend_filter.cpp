@@ -1065,3 +1065,47 @@ TEST(ParticleFilter, AKidnappingThatLookAlikesDeclaredIsCancelledByTheHypothesis
   for (const UpdateReport& r : reports) EXPECT_FALSE(r.recovered);
   EXPECT_TRUE(without->kidnapped());
 }
+
+TEST(ParticleFilter, AMeasurementInconsistentWithTheWholeSetDoesNotCollapseItOntoItsTail) {
+  // The robot drove 4 m unobserved: the particles have spread. A look-alike
+  // of landmark 1 then puts it 0.7 m to the side of the estimate, where only
+  // the set's tail lies. The kidnap test finds the measurement inconsistent
+  // (a < detect_agreement): it weighs no particle, and the estimate stays.
+  // Weighed (the control: detect_agreement 0), the few particles within its
+  // gate (the dual particles drawn at its implied pose, and any of the set's
+  // tail) take the weight of all of them, and the estimate jumps towards it.
+  struct Outcome {
+    UpdateReport report;
+    double moved_m = 0;
+  };
+  auto run = [](double detect_agreement) {
+    FilterParams p = homeParams(200);
+    p.kidnap.detect_agreement = detect_agreement;
+    p.motion = {0.05, 0.05};
+    ParticleFilter pf(p);
+    pf.update(observationAt(1, {1, 0, 0}, 0));  // landmark 1 at (-1, 0, 0)
+    for (int k = 0; k < 40; ++k) pf.predict({0.1, 0, 0});
+    const PoseEstimate before = pf.estimate();
+    const Pose2 claimed{before.mean.x, before.mean.y + 0.7, before.mean.theta};
+    Outcome out;
+    out.report = pf.update(observationAt(1, predictMeasurement(claimed, {-1, 0, 0}), 4));
+    const PoseEstimate after = pf.estimate();
+    out.moved_m = std::hypot(after.mean.x - before.mean.x, after.mean.y - before.mean.y);
+    if (std::getenv("VSLAM_TEST_VERBOSE") != nullptr)
+      std::printf("detect_agreement %g: agreement %g outliers %d ess %.1f moved %.3f m\n",
+                  detect_agreement, out.report.agreement, out.report.num_outliers, out.report.ess,
+                  out.moved_m);
+    return out;
+  };
+  const Outcome judged = run(1e-3);
+  EXPECT_LT(judged.report.agreement, 1e-3);
+  EXPECT_EQ(judged.report.kind, UpdateKind::kInconsistent);
+  EXPECT_GT(judged.report.ess, 150);
+  EXPECT_LT(judged.moved_m, 0.01);
+
+  const Outcome weighed = run(0);  // the control
+  EXPECT_EQ(weighed.report.kind, UpdateKind::kMixture);
+  EXPECT_LT(weighed.report.num_outliers, 200);  // a few particles within the gate...
+  EXPECT_LT(weighed.report.ess, 20);            // ...take the weight
+  EXPECT_GT(weighed.moved_m, 0.2);
+}
