@@ -115,8 +115,8 @@ const char* toString(UpdateKind k) {
       return "mixture";
     case UpdateKind::kKidnapped:
       return "kidnapped";
-    case UpdateKind::kInconsistent:
-      return "inconsistent";
+    case UpdateKind::kIgnored:
+      return "ignored";
   }
   return "?";
 }
@@ -298,17 +298,16 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   const MixtureParams& mix = params_.mixture;
   bool confirmed_by_cluster = false;
   const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
-  // (With the robust likelihood.) A measurement the particles as a whole
-  // find inconsistent (below the kidnap test's detect_agreement) is a
-  // look-alike, a kidnapping, or drift the filter has not caught up with:
-  // the kidnap and drift tests above judge it, and it does not weigh the
-  // particles. Weighed, the few particles within its gate (the dual
-  // particles drawn at its implied pose, and any of the set's tail) would
-  // take all the weight, and the estimate would jump to them
-  // (docs/backend.md, "Inconsistent measurements").
-  if (params_.outlier.probability > 0 && !all_dual && !rep.drift_corrected &&
-      agreement < params_.kidnap.detect_agreement) {
-    rep.kind = UpdateKind::kInconsistent;
+  // (With the robust likelihood.) A known look-alike's measurement weighs
+  // the particles only if it is consistent (a >= recover_agreement, as its
+  // record counts it): otherwise it is most likely the look-alike again, and
+  // it weighs no particle and updates no landmark filter (it already proposes
+  // no dual particles and gives no kidnap evidence). Weighed, the few
+  // particles of the set's tail within its gate would take all the weight,
+  // and the estimate would jump to them (docs/backend.md, "Known look-alikes").
+  if (suspect && params_.outlier.probability > 0 && !all_dual && !rep.drift_corrected &&
+      agreement < params_.kidnap.recover_agreement) {
+    rep.kind = UpdateKind::kIgnored;
     for (const Innovation& in : innovations_)
       rep.num_outliers += in.mahalanobis_sq > params_.outlier.gate_mahalanobis_sq;
     rep.smoothed_agreement = smoothed_agreement_;

@@ -173,10 +173,10 @@ struct Observation {
 };
 
 enum class UpdateKind {
-  kInitialized,   // first measurement of the landmark: added to every particle's map
-  kMixture,       // nominal + dual particles
-  kKidnapped,     // all dual, uniform importance (kidnapping detected or not yet recovered)
-  kInconsistent,  // far from every particle: kidnap evidence only, no weights, no duals
+  kInitialized,  // first measurement of the landmark: added to every particle's map
+  kMixture,      // nominal + dual particles
+  kKidnapped,    // all dual, uniform importance (kidnapping detected or not yet recovered)
+  kIgnored,      // a known look-alike's inconsistent measurement: weighs nothing
 };
 const char* toString(UpdateKind k);
 

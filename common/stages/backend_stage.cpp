@@ -77,8 +77,7 @@ ParamTable<backend::KidnapParams> kidnapTable() {
   using K = backend::KidnapParams;
   ParamTable<K> t;
   t.add("detect_agreement", &K::detect_agreement, InRange{0, 1}, "",
-        "a measurement agreeing less is \"inconsistent\": kidnap and drift evidence only, it "
-        "weighs no particle (with the robust likelihood)")
+        "a measurement agreeing less is \"inconsistent\"")
       .add("detect_count", &K::detect_count, InRange{1, 1000}, "",
            "inconsistent measurements in a row that declare a kidnapping")
       .add("recover_agreement", &K::recover_agreement, InRange{0, 1}, "",
@@ -96,7 +95,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("suspect_after", &K::suspect_after, InRange{0, 1000}, "",
            "a landmark in this many contradicted runs (ended by a consistent measurement), and in "
            "at least half as many as its consistent measurements, is a look-alike: no kidnap "
-           "evidence, no dual particles, ignored while kidnapped; 0: never")
+           "evidence, no dual particles, ignored while kidnapped, and unless consistent "
+           "(`recover_agreement`) weighs no particle; 0: never")
       .add("recover_landmarks", &K::recover_landmarks, InRange{1, 1000}, "",
            "consistent measurements that end a kidnapping come from at least this many distinct "
            "landmarks")
