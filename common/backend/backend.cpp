@@ -394,6 +394,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   counters_.recoveries += u.recovered;
   counters_.kidnaps_cancelled += u.cancelled;
   counters_.drift_corrections += u.drift_corrected;
+  counters_.look_alike_measurements_ignored += u.kind == UpdateKind::kIgnored;
   counters_.resamplings += u.resampled;
   if (u.kidnap_detected) deferred_.clear();
   if (u.deferred) deferred_[m.landmark_id] = m;

@@ -142,6 +142,9 @@ struct BackendCounters {
   int64_t recoveries = 0;
   int64_t kidnaps_cancelled = 0;  // recoveries that went back to the pose before (look-alikes)
   int64_t drift_corrections = 0;  // evidence within the drift gate (KidnapParams)
+  // Known look-alikes' measurements that were not consistent: weighed
+  // nothing (UpdateKind::kIgnored).
+  int64_t look_alike_measurements_ignored = 0;
   // Landmarks first seen while kidnapped, mapped at the relocalization from
   // their newest measurement carried by the odometry (UpdateReport::deferred).
   int64_t landmarks_mapped_after_relocalization = 0;

@@ -695,6 +695,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
              static_cast<double>(c.use[static_cast<int>(MeasurementUse::kThinned)]), "count");
   report.add("measurements_unused_retired",
              static_cast<double>(c.use[static_cast<int>(MeasurementUse::kRetired)]), "count");
+  report.add("measurements_ignored_look_alike",
+             static_cast<double>(c.look_alike_measurements_ignored), "count");
   report.add("landmarks", static_cast<double>(backend_.filter().numLandmarks()), "count");
   report.add("particles", static_cast<double>(backend_.filter().particles().size()), "count");
   const backend::PoseEstimate e = backend_.filter().estimate();
