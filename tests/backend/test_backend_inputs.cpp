@@ -368,3 +368,46 @@ TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocaliz
   EXPECT_EQ(again.update.kind, UpdateKind::kMixture);
   EXPECT_GT(again.update.agreement, 0.5);
 }
+
+TEST(BackendMeasurements, AKnownLookAlikesInconsistentMeasurementIsCountedAsIgnored) {
+  // Landmarks 1 and 2 are twice measured as if the robot stood 2 m to the
+  // side (a look-alike wall), each run contradicted by landmark 3: they
+  // become known look-alikes. Their next inconsistent measurement weighs
+  // nothing, and health counts it.
+  BackendParams p = params(100, 0.01);
+  p.filter.kidnap.detect_count = 100;  // the runs end by landmark 3, not by a kidnapping
+  p.filter.kidnap.suspect_after = 2;
+  Backend be(p);
+  const Pose2 aside{0, 2, 0};
+  auto measurement = [](int64_t id, int64_t landmark_seq, int64_t seq, const Pose2& offset) {
+    MeasurementInput m;
+    m.landmark_id = id;
+    m.utime = reading(seq).utime;
+    m.relative = reading(landmark_seq).pose.between(reading(seq).pose).compose(offset);
+    m.proj_err_rms_px = 1;
+    m.num_points = 30;
+    return m;
+  };
+  int64_t seq = 0;
+  auto driveTo = [&](int64_t last) {
+    for (; seq <= last; ++seq) be.addOdometry(reading(seq));
+  };
+  driveTo(50);
+  for (int64_t id : {1, 2, 3}) be.addMeasurement(measurement(id, 50, 50, {}));
+  for (int64_t s : {60, 70}) {
+    driveTo(s);
+    be.addMeasurement(measurement(1, 50, s, aside));
+    be.addMeasurement(measurement(2, 50, s, aside));
+    EXPECT_EQ(be.addMeasurement(measurement(3, 50, s, {})).update.kind, UpdateKind::kMixture);
+  }
+  EXPECT_EQ(be.filter().numSuspectLandmarks(), 2u);
+  EXPECT_EQ(be.counters().look_alike_measurements_ignored, 0);
+  driveTo(80);
+  const MeasurementResult r = be.addMeasurement(measurement(1, 50, 80, aside));
+  EXPECT_EQ(r.use, MeasurementUse::kUsed);
+  EXPECT_EQ(r.update.kind, UpdateKind::kIgnored);
+  EXPECT_EQ(be.counters().look_alike_measurements_ignored, 1);
+  // A consistent one of the same landmark weighs the particles as usual.
+  EXPECT_EQ(be.addMeasurement(measurement(1, 50, 80, {})).update.kind, UpdateKind::kMixture);
+  EXPECT_EQ(be.counters().look_alike_measurements_ignored, 1);
+}
