@@ -41,6 +41,20 @@ OdometryReading reading(int64_t seq) {
   return {at(t), seq, {2.0 * std::sin(a), 2.0 * (1 - std::cos(a)), wrapAngle(a)}};
 }
 
+// A measurement at odometry reading `seq` of landmark `id`, made at reading
+// `landmark_seq` of that circle: exact, or composed with `offset` (a
+// look-alike's).
+MeasurementInput circleMeasurement(int64_t id, int64_t landmark_seq, int64_t seq,
+                                   const Pose2& offset = {}) {
+  MeasurementInput m;
+  m.landmark_id = id;
+  m.utime = reading(seq).utime;
+  m.relative = reading(landmark_seq).pose.between(reading(seq).pose).compose(offset);
+  m.proj_err_rms_px = 1;
+  m.num_points = 30;
+  return m;
+}
+
 }  // namespace
 
 // --- Pre-filter -----------------------------------------------------------------
@@ -331,26 +345,17 @@ TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocaliz
   BackendParams p = params(50, 0.01);
   p.filter.kidnap.recover_landmarks = 2;
   Backend be(p);
-  auto measurement = [](int64_t id, int64_t landmark_seq, int64_t seq) {
-    MeasurementInput m;
-    m.landmark_id = id;
-    m.utime = reading(seq).utime;
-    m.relative = reading(landmark_seq).pose.between(reading(seq).pose);
-    m.proj_err_rms_px = 1;
-    m.num_points = 30;
-    return m;
-  };
   int64_t seq = 0;
   auto driveTo = [&](int64_t last) {
     for (; seq <= last; ++seq) be.addOdometry(reading(seq));
   };
   driveTo(50);
-  EXPECT_EQ(be.addMeasurement(measurement(1, 0, 50)).update.kind, UpdateKind::kInitialized);
-  EXPECT_EQ(be.addMeasurement(measurement(2, 25, 50)).update.kind, UpdateKind::kInitialized);
+  EXPECT_EQ(be.addMeasurement(circleMeasurement(1, 0, 50)).update.kind, UpdateKind::kInitialized);
+  EXPECT_EQ(be.addMeasurement(circleMeasurement(2, 25, 50)).update.kind, UpdateKind::kInitialized);
   be.filter().startKidnapped();
   for (int64_t s : {110, 130}) {
     driveTo(s);
-    const MeasurementResult r = be.addMeasurement(measurement(3, 100, s));
+    const MeasurementResult r = be.addMeasurement(circleMeasurement(3, 100, s));
     EXPECT_EQ(r.use, MeasurementUse::kUsed);
     EXPECT_TRUE(r.update.deferred);
   }
@@ -358,13 +363,14 @@ TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocaliz
   bool recovered = false;
   for (int64_t s = 150; s < 200 && !recovered; s += 5) {
     driveTo(s);
-    recovered = be.addMeasurement(measurement(s % 2 ? 1 : 2, s % 2 ? 0 : 25, s)).update.recovered;
+    recovered =
+        be.addMeasurement(circleMeasurement(s % 2 ? 1 : 2, s % 2 ? 0 : 25, s)).update.recovered;
   }
   ASSERT_TRUE(recovered);
   EXPECT_EQ(be.counters().landmarks_mapped_after_relocalization, 1);
   EXPECT_EQ(be.filter().numLandmarks(), 3u);
   driveTo(220);
-  const MeasurementResult again = be.addMeasurement(measurement(3, 100, 220));
+  const MeasurementResult again = be.addMeasurement(circleMeasurement(3, 100, 220));
   EXPECT_EQ(again.update.kind, UpdateKind::kMixture);
   EXPECT_GT(again.update.agreement, 0.5);
 }
@@ -379,35 +385,26 @@ TEST(BackendMeasurements, AKnownLookAlikesInconsistentMeasurementIsCountedAsIgno
   p.filter.kidnap.suspect_after = 2;
   Backend be(p);
   const Pose2 aside{0, 2, 0};
-  auto measurement = [](int64_t id, int64_t landmark_seq, int64_t seq, const Pose2& offset) {
-    MeasurementInput m;
-    m.landmark_id = id;
-    m.utime = reading(seq).utime;
-    m.relative = reading(landmark_seq).pose.between(reading(seq).pose).compose(offset);
-    m.proj_err_rms_px = 1;
-    m.num_points = 30;
-    return m;
-  };
   int64_t seq = 0;
   auto driveTo = [&](int64_t last) {
     for (; seq <= last; ++seq) be.addOdometry(reading(seq));
   };
   driveTo(50);
-  for (int64_t id : {1, 2, 3}) be.addMeasurement(measurement(id, 50, 50, {}));
+  for (int64_t id : {1, 2, 3}) be.addMeasurement(circleMeasurement(id, 50, 50, {}));
   for (int64_t s : {60, 70}) {
     driveTo(s);
-    be.addMeasurement(measurement(1, 50, s, aside));
-    be.addMeasurement(measurement(2, 50, s, aside));
-    EXPECT_EQ(be.addMeasurement(measurement(3, 50, s, {})).update.kind, UpdateKind::kMixture);
+    be.addMeasurement(circleMeasurement(1, 50, s, aside));
+    be.addMeasurement(circleMeasurement(2, 50, s, aside));
+    EXPECT_EQ(be.addMeasurement(circleMeasurement(3, 50, s, {})).update.kind, UpdateKind::kMixture);
   }
   EXPECT_EQ(be.filter().numSuspectLandmarks(), 2u);
   EXPECT_EQ(be.counters().look_alike_measurements_ignored, 0);
   driveTo(80);
-  const MeasurementResult r = be.addMeasurement(measurement(1, 50, 80, aside));
+  const MeasurementResult r = be.addMeasurement(circleMeasurement(1, 50, 80, aside));
   EXPECT_EQ(r.use, MeasurementUse::kUsed);
   EXPECT_EQ(r.update.kind, UpdateKind::kIgnored);
   EXPECT_EQ(be.counters().look_alike_measurements_ignored, 1);
   // A consistent one of the same landmark weighs the particles as usual.
-  EXPECT_EQ(be.addMeasurement(measurement(1, 50, 80, {})).update.kind, UpdateKind::kMixture);
+  EXPECT_EQ(be.addMeasurement(circleMeasurement(1, 50, 80, {})).update.kind, UpdateKind::kMixture);
   EXPECT_EQ(be.counters().look_alike_measurements_ignored, 1);
 }
