@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "world/geometry2d.hpp"
+#include "world/texture_cache.hpp"
 
 namespace vslam::world {
 namespace fs = std::filesystem;
@@ -114,7 +116,9 @@ fs::path resolveTexturePath(const std::string& reference, const fs::path& base_d
   return p.is_absolute() ? p : base_dir / p;
 }
 
-cv::Mat loadTexture(const std::string& reference, const fs::path& base_dir) {
+namespace {
+
+cv::Mat loadTextureUncached(const std::string& reference, const fs::path& file) {
   if (startsWith(reference, kProceduralPrefix)) {
     const std::string name = reference.substr(std::string(kProceduralPrefix).size());
     cv::Mat t = proceduralTexture(name);
@@ -125,7 +129,6 @@ cv::Mat loadTexture(const std::string& reference, const fs::path& base_dir) {
     }
     return t;
   }
-  const fs::path file = resolveTexturePath(reference, base_dir);
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) {
     std::string hint;
@@ -138,6 +141,15 @@ cv::Mat loadTexture(const std::string& reference, const fs::path& base_dir) {
     throw std::runtime_error("cannot read texture image " + file.string());
   }
   return img;
+}
+
+}  // namespace
+
+cv::Mat loadTexture(const std::string& reference, const fs::path& base_dir) {
+  const fs::path file = resolveTexturePath(reference, base_dir);
+  const std::optional<std::string> identity = textureIdentity(reference, file);
+  if (!identity) return loadTextureUncached(reference, file);
+  return cachedTexture(*identity, [&] { return loadTextureUncached(reference, file); });
 }
 
 int World::addTexture(const std::string& reference, const fs::path& base_dir) {

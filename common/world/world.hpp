@@ -133,7 +133,9 @@ std::vector<Surface> makeBox(const Eigen::Vector3d& centre_bottom, const Eigen::
 std::filesystem::path resolveTexturePath(const std::string& reference,
                                          const std::filesystem::path& base_dir);
 // Loads a texture reference as CV_8UC3 BGR (procedural ones generated);
-// throws std::runtime_error naming the reference and the file.
+// throws std::runtime_error naming the reference and the file. Decoded once
+// per process: the pixels are shared with every other load of the same
+// texture, so treat them as read-only (copy before writing).
 cv::Mat loadTexture(const std::string& reference, const std::filesystem::path& base_dir);
 // Names of the built-in procedural textures ("noise", "checker", ...).
 std::vector<std::string> proceduralTextureNames();

@@ -14,6 +14,7 @@
 #include "config/config_node.hpp"
 #include "util/strings.hpp"
 #include "world/geometry2d.hpp"
+#include "world/texture_cache.hpp"
 #include "world/world.hpp"
 
 namespace vslam::world {
@@ -273,33 +274,46 @@ class Loader {
     std::string key = ref + "@" + std::to_string(rotate_deg) + (mirror ? "|mirror" : "");
     for (double v : rect) key += "," + fmt(v);
     if (auto it = texture_index_.find(key); it != texture_index_.end()) return it->second;
-    cv::Mat img;
-    try {
-      img = loadTexture(ref, doc_.base_dir);
-    } catch (const std::runtime_error& e) {
-      where.fail(e.what());
-    }
-    if (crop) {
-      const cv::Rect r(static_cast<int>(rect[0]), static_cast<int>(rect[1]),
-                       static_cast<int>(rect[2]), static_cast<int>(rect[3]));
-      if (r.width < 2 || r.height < 2 || r.x < 0 || r.y < 0 || r.x + r.width > img.cols ||
-          r.y + r.height > img.rows) {
-        crop->fail("crop [x, y, width, height] must lie inside the " + std::to_string(img.cols) +
-                   " x " + std::to_string(img.rows) + " image");
+    auto prepare = [&] {
+      cv::Mat img;
+      try {
+        img = loadTexture(ref, doc_.base_dir);
+      } catch (const std::runtime_error& e) {
+        where.fail(e.what());
       }
-      img = img(r).clone();
-    }
-    if (rotate_deg == 90) cv::rotate(img, img, cv::ROTATE_90_CLOCKWISE);
-    if (rotate_deg == 180) cv::rotate(img, img, cv::ROTATE_180);
-    if (rotate_deg == 270) cv::rotate(img, img, cv::ROTATE_90_COUNTERCLOCKWISE);
-    if (mirror) {
-      // Every other copy left-right mirrored (GL_MIRRORED_REPEAT along the
-      // width): the pattern repeats only every two copies, and SIFT, which
-      // is not mirror-invariant, does not match a copy with its neighbours.
-      cv::Mat flipped;
-      cv::flip(img, flipped, 1);
-      cv::hconcat(img, flipped, img);
-    }
+      if (crop) {
+        const cv::Rect r(static_cast<int>(rect[0]), static_cast<int>(rect[1]),
+                         static_cast<int>(rect[2]), static_cast<int>(rect[3]));
+        if (r.width < 2 || r.height < 2 || r.x < 0 || r.y < 0 || r.x + r.width > img.cols ||
+            r.y + r.height > img.rows) {
+          crop->fail("crop [x, y, width, height] must lie inside the " + std::to_string(img.cols) +
+                     " x " + std::to_string(img.rows) + " image");
+        }
+        img = img(r).clone();
+      }
+      // (Never in place: img may share its pixels with the texture cache.)
+      const std::map<int, cv::RotateFlags> rotations = {{90, cv::ROTATE_90_CLOCKWISE},
+                                                        {180, cv::ROTATE_180},
+                                                        {270, cv::ROTATE_90_COUNTERCLOCKWISE}};
+      if (const auto r = rotations.find(rotate_deg); r != rotations.end()) {
+        cv::Mat rotated;
+        cv::rotate(img, rotated, r->second);
+        img = rotated;
+      }
+      if (mirror) {
+        // Every other copy left-right mirrored (GL_MIRRORED_REPEAT along the
+        // width): the pattern repeats only every two copies, and SIFT, which
+        // is not mirror-invariant, does not match a copy with its neighbours.
+        cv::Mat flipped;
+        cv::flip(img, flipped, 1);
+        cv::hconcat(img, flipped, img);
+      }
+      return img;
+    };
+    // Prepared once per process (texture_cache.hpp).
+    const std::optional<std::string> identity =
+        textureIdentity(ref, resolveTexturePath(ref, doc_.base_dir));
+    const cv::Mat img = identity ? cachedTexture(*identity + "@" + key, prepare) : prepare();
     world_.textures.push_back(img);
     const int index = static_cast<int>(world_.textures.size()) - 1;
     texture_index_[key] = index;

@@ -260,6 +260,31 @@ TEST(WorldFile, TextureReferences) {
   fs::remove_all(dir);
 }
 
+TEST(WorldFile, TexturesAreDecodedOnceAndReadAgainWhenTheFileChanges) {
+  const fs::path dir = scratchDir();
+  const fs::path file = dir / "t.png";
+  cv::Mat pixels(8, 16, CV_8UC3, cv::Scalar(1, 2, 3));
+  pixels.at<cv::Vec3b>(0, 0) = {9, 9, 9};
+  cv::imwrite(file.string(), pixels);
+  const cv::Mat first = loadTexture("t.png", dir);
+  const cv::Mat again = loadTexture("t.png", dir);
+  EXPECT_EQ(first.data, again.data);  // one decode, shared
+  // A world that rotates the texture by 180 degrees leaves the shared
+  // pixels as they were.
+  std::ofstream(dir / "w.yaml") << replaced(replaced(kTwoRooms, "skimage:brick.png", "t.png"),
+                                            "rotate_deg: 90", "rotate_deg: 180");
+  const World w = World::loadFile(dir / "w.yaml");
+  ASSERT_EQ(w.textures.size(), 1u);
+  EXPECT_EQ(w.textures[0].at<cv::Vec3b>(7, 15), cv::Vec3b(9, 9, 9));
+  EXPECT_EQ(loadTexture("t.png", dir).at<cv::Vec3b>(0, 0), cv::Vec3b(9, 9, 9));
+  // An edited file (another size) is decoded again.
+  cv::imwrite(file.string(), cv::Mat(4, 4, CV_8UC3, cv::Scalar(5, 5, 5)));
+  EXPECT_EQ(loadTexture("t.png", dir).cols, 4);
+  fs::remove(file);
+  EXPECT_THROW(loadTexture("t.png", dir), std::runtime_error);
+  fs::remove_all(dir);
+}
+
 TEST(WorldFile, MakeBoxFacesOutward) {
   const auto faces = makeBox({1, 2, 0}, {0.4, 0.6, 1.8}, 0.3, 5, 0.5);
   ASSERT_EQ(faces.size(), 5u);
