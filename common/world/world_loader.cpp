@@ -304,9 +304,10 @@ class Loader {
         // Every other copy left-right mirrored (GL_MIRRORED_REPEAT along the
         // width): the pattern repeats only every two copies, and SIFT, which
         // is not mirror-invariant, does not match a copy with its neighbours.
-        cv::Mat flipped;
+        cv::Mat flipped, both;
         cv::flip(img, flipped, 1);
-        cv::hconcat(img, flipped, img);
+        cv::hconcat(img, flipped, both);
+        img = both;
       }
       return img;
     };
