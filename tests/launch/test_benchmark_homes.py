@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""scripts/benchmark-homes judges a start in a saved map in the map's frame.
+"""scripts/benchmark-homes judges a start in a saved map in the map's frame,
+and cuts LCM logs by channel and time (the restarts' inputs).
 
     tests/launch/test_benchmark_homes.py REPO_ROOT
 
@@ -36,6 +37,31 @@ def write_map(path, rows):
                    "created_utime INTEGER NOT NULL, map_x REAL, map_y REAL)")
         db.executemany("INSERT INTO landmarks(created_utime, map_x, map_y) VALUES (?, ?, ?)",
                        rows)
+
+
+def copy_events_failures(bh):
+    """copy_events keeps the named channels' events from from_s to to_s (both
+    included) after the log's first event, numbered again from 0."""
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        src, dst = Path(tmp) / "in.lcmlog", Path(tmp) / "out.lcmlog"
+        with open(src, "wb") as f:
+            for k in range(20):  # A and B in turn, every 0.5 s
+                ch = b"A" if k % 2 == 0 else b"B"
+                data = bytes([k])
+                f.write(bh.struct.pack(">IqqiI", bh.LCM_SYNC, 100 + k, 1_000_000 + k * 500_000,
+                                       len(ch), len(data)) + ch + data)
+        bh.copy_events(src, dst, ("A",), from_s=2.0, to_s=5.0)
+        got = []
+        with open(dst, "rb") as f:
+            while hdr := f.read(28):
+                _, event, ts, clen, dlen = bh.struct.unpack(">IqqiI", hdr)
+                ch = f.read(clen)
+                got.append((event, (ts - 1_000_000) / 1e6, ch, f.read(dlen)[0]))
+        want = [(n, 2.0 + n, b"A", 4 + 2 * n) for n in range(4)]
+        if got != want:
+            failures.append(f"copy_events A from 2 to 5 s gave {got}, not {want}")
+    return failures
 
 
 def main():
@@ -81,10 +107,11 @@ def main():
                            for k, (x, y) in zip(created[:2], to_map[:2])])
         if bh.map_frame(sparse, ref_t, ref_p) is not None:
             failures.append("a map of 2 placed landmarks gave a frame")
+    failures += copy_events_failures(bh)
     for f in failures:
         print("FAIL:", f)
     if not failures:
-        print("ok: benchmark-homes judges starts in the map's frame")
+        print("ok: benchmark-homes judges starts in the map's frame and cuts logs")
     return 1 if failures else 0
 
 
