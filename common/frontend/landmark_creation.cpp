@@ -331,6 +331,9 @@ class CreationSteps {
       lm.points_robot.push_back(robot_T_camera_ * (scale_ * model_.points[i]));
       lm.feature_index.push_back(feature_index[i]);
       lm.range_sigma_m.push_back(range_sigma);
+      lm.observations[0].push_back(obs_.x1[i]);
+      lm.observations[1].push_back(obs_.x2[i]);
+      lm.observations[2].push_back(obs_.x3[i]);
     }
     lm.rms_reprojection_px = reprojectionRmsPx(obs_, model_, focal_px_, good);
     lm.robot1_T_camera2 = metricRobotTCamera(model_.cam2_T_cam1);

@@ -86,7 +86,10 @@ struct CreatedLandmark {
   // For each point: its index in view 1's Features (keypoint and descriptor).
   std::vector<int> feature_index;
   std::vector<double> range_sigma_m;  // std of each point's range from the view-1 camera
-  double rms_reprojection_px = 0;     // over the kept points in all three views
+  // Each point's feature in views 1, 2 and 3, normalized coordinates (what a
+  // refinement from later views needs: landmark_refinement.hpp).
+  std::array<std::vector<Eigen::Vector2d>, 3> observations;
+  double rms_reprojection_px = 0;  // over the kept points in all three views
   int num_three_way = 0;
   // The cameras of views 2 and 3 as estimated by vision, in the view-1 robot
   // frame, metric.
@@ -122,6 +125,8 @@ class LandmarkCreator {
                                            const std::array<Pose2, 3>& odometry);
 
   const CreationParams& params() const { return params_; }
+  double focalPx() const { return focal_px_; }
+  const Eigen::Isometry3d& robotTCamera() const { return robot_T_camera_; }
 
  private:
   void solve(const ThreeViewObservations& obs, const std::vector<int>& feature_index,

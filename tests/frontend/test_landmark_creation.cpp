@@ -16,8 +16,10 @@
 #include "frontend/creation_geometry.hpp"
 #include "frontend/features.hpp"
 #include "frontend/landmark_creation.hpp"
+#include "frontend/landmark_refinement.hpp"
 #include "frontend/matching.hpp"
 #include "frontend/three_view_ba.hpp"
+#include "util/statistics.hpp"
 #include "world/renderer.hpp"
 #include "world/world.hpp"
 
@@ -536,6 +538,129 @@ TEST(LandmarkCreation, ParamsValidate) {
   p = {};
   p.ba.outlier_sigmas = 0;
   EXPECT_THROW(LandmarkCreator(277.0, Eigen::Isometry3d::Identity(), p), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------- refinement
+
+// Median over a landmark's points of |estimate - truth| / range and of the
+// range ratio (estimate / truth), both from the view-1 camera.
+std::pair<double, double> pointErrors(const Scene& s, const CreatedLandmark& lm) {
+  std::vector<double> relative, ratio;
+  const Eigen::Vector3d c = s.robot_T_camera.translation();
+  for (size_t j = 0; j < lm.points_robot.size(); ++j) {
+    const Eigen::Vector3d truth = s.points_robot1[lm.feature_index[j]];
+    relative.push_back((lm.points_robot[j] - truth).norm() / (truth - c).norm());
+    ratio.push_back((lm.points_robot[j] - c).norm() / (truth - c).norm());
+  }
+  return {median(relative), median(ratio)};
+}
+
+// Later views of the landmark's points from the given robot poses (view 1 at
+// the origin), 0.5 px noise; the first `corrupt` observations of the last
+// view are replaced by random pixels.
+std::vector<LaterView> laterViews(const Scene& s, const CreatedLandmark& lm,
+                                  const std::vector<Pose2>& poses, int corrupt, uint32_t seed) {
+  const FeatureExtractor extractor(kK, kDist);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<LaterView> views;
+  for (size_t k = 0; k < poses.size(); ++k) {
+    const Eigen::Isometry3d robot1_T_robot = isometryFromPose2(poses[k]);
+    const Eigen::Isometry3d cam_T_robot1 = (robot1_T_robot * s.robot_T_camera).inverse();
+    LaterView v;
+    v.odometry = poses[k];
+    // Vision's guess: the truth 2 cm and half a degree off.
+    v.robot1_T_robot =
+        isometryFromPose2(Pose2{poses[k].x + 0.02, poses[k].y - 0.01, poses[k].theta + 0.5 * kDeg});
+    std::vector<cv::Point2f> pixels;
+    for (size_t j = 0; j < lm.points_robot.size(); ++j) {
+      const Eigen::Vector3d q = cam_T_robot1 * s.points_robot1[lm.feature_index[j]];
+      if (q.z() < 0.2) continue;
+      std::vector<cv::Point3d> in{{q.x(), q.y(), q.z()}};
+      std::vector<cv::Point2d> out;
+      cv::projectPoints(in, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), kK, kDist, out);
+      cv::Point2d px = out[0] + cv::Point2d(noise(rng), noise(rng));
+      if (px.x < 0 || px.x >= 320 || px.y < 0 || px.y >= 240) continue;
+      if (k + 1 == poses.size() && static_cast<int>(v.points.size()) < corrupt)
+        px = cv::Point2d(320 * u01(rng), 240 * u01(rng));
+      pixels.emplace_back(px);
+      v.points.push_back(static_cast<int>(j));
+    }
+    extractor.undistort(pixels, &v.observations);
+    views.push_back(std::move(v));
+  }
+  return views;
+}
+
+// A creation whose 40 cm of odometry was 8% long makes a landmark 8% too
+// large; three later views out to 1 m with their (true) odometry bring the
+// scale within 2.5% and the points nearer the truth, and the corrupted
+// observations of the last view are dropped.
+TEST(LandmarkRefinement, LaterViewsCorrectTheScaleAndTheStructure) {
+  const std::array<Pose2, 3> poses = {Pose2{0, 0, 0}, Pose2{0.2, 0.0, 0.01},
+                                      Pose2{0.4, 0.01, 0.02}};
+  const Eigen::Isometry3d robot_T_camera = mount(0, {0.1, 0, 0.3});
+  for (uint32_t seed : {5u, 6u, 7u}) {
+    SCOPED_TRACE(seed);
+    const Scene s = makeScene(poses, robot_T_camera, 300, 0.0, 0.5, seed, 1.5, 4.5);
+    std::array<Pose2, 3> odometry = poses;
+    for (int k = 1; k < 3; ++k) {
+      odometry[k].x *= 1.08;
+      odometry[k].y *= 1.08;
+    }
+    LandmarkCreator creator(277.13, robot_T_camera);
+    CreationResult r = creator.createFromCorrespondences(s.obs, s.ids, odometry);
+    ASSERT_TRUE(r.ok()) << r.reason;
+    const auto [error_before, ratio_before] = pointErrors(s, r.landmark);
+    EXPECT_NEAR(ratio_before, 1.08, 0.02);  // the creation's scale follows its odometry
+
+    const std::vector<LaterView> later = laterViews(
+        s, r.landmark, {Pose2{0.6, 0.02, 0.03}, Pose2{0.8, 0.03, 0.03}, Pose2{1.0, 0.03, 0.04}}, 6,
+        seed);
+    CreatedLandmark refined = r.landmark;
+    const RefinementReport report =
+        refineLandmark(odometry, later, 277.13, robot_T_camera, RefinementParams{}, &refined);
+    ASSERT_TRUE(report.refined) << report.reason;
+    EXPECT_EQ(report.later_views, 3);
+    EXPECT_NEAR(report.span_m, 1.0, 0.01);
+    EXPECT_GE(report.rejected_observations, 5);
+    EXPECT_LT(report.rms_after_px, 0.9);
+    const auto [error_after, ratio_after] = pointErrors(s, refined);
+    EXPECT_NEAR(ratio_after, 1.0, 0.025);
+    EXPECT_NEAR(report.scale_change * ratio_before, ratio_after, 0.01);
+    EXPECT_LT(error_after, 0.5 * error_before);
+    // The views' cameras moved with the scale: view 3's about 40 cm ahead.
+    EXPECT_NEAR((refined.robot1_T_camera3.translation() - robot_T_camera.translation()).norm(),
+                0.40, 0.015);
+  }
+}
+
+// With nothing seen far enough away, the landmark is left exactly as made.
+TEST(LandmarkRefinement, WithoutDistantViewsTheLandmarkIsLeftAsMade) {
+  const std::array<Pose2, 3> poses = {Pose2{0, 0, 0}, Pose2{0.2, 0.0, 0.01},
+                                      Pose2{0.4, 0.01, 0.02}};
+  const Eigen::Isometry3d robot_T_camera = mount(0, {0.1, 0, 0.3});
+  const Scene s = makeScene(poses, robot_T_camera, 300, 0.0, 0.5, 8, 1.5, 4.5);
+  LandmarkCreator creator(277.13, robot_T_camera);
+  const CreationResult r = creator.createFromCorrespondences(s.obs, s.ids, poses);
+  ASSERT_TRUE(r.ok()) << r.reason;
+  CreatedLandmark lm = r.landmark;
+  RefinementReport report =
+      refineLandmark(poses, {}, 277.13, robot_T_camera, RefinementParams{}, &lm);
+  EXPECT_FALSE(report.refined);
+  EXPECT_EQ(report.reason, "no later view saw enough of its points");
+  const std::vector<LaterView> near = laterViews(s, lm, {Pose2{0.45, 0.01, 0.02}}, 0, 8);
+  RefinementParams params;
+  params.min_span_m = 0.5;
+  report = refineLandmark(poses, near, 277.13, robot_T_camera, params, &lm);
+  EXPECT_FALSE(report.refined);
+  EXPECT_EQ(report.reason, "the later views are too near the first");
+  for (size_t j = 0; j < lm.points_robot.size(); ++j)
+    EXPECT_EQ(lm.points_robot[j], r.landmark.points_robot[j]);
+  RefinementParams bad;
+  bad.odometry_sigma_floor_m = 0;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------- rendered views
