@@ -31,7 +31,10 @@ Frontend::Frontend(FrontendParams params)
       extractor_(params_.camera, params_.sift),
       creator_(params_.camera, params_.creation),
       measurement_camera_(MeasurementCamera::fromConfig(params_.camera)),
-      index_(params_.recognition) {}
+      index_(params_.recognition),
+      refining_matcher_(MatchParams{params_.recognition.ratio, false}) {
+  params_.refinement.validate();
+}
 
 Frontend::OdometryVerdict Frontend::addOdometry(Utime t, const Pose2& pose) {
   if (!pose.isFinite()) return OdometryVerdict::kNotFinite;
@@ -68,6 +71,10 @@ void Frontend::extract(const cv::Mat& gray, Features* out) { extractor_.extract(
 
 FrameResult Frontend::track(Utime t, Features features) {
   FrameResult result;
+  View view;
+  view.utime = t;
+  result.have_odometry = odometryAt(t, &view.odometry);
+
   Utime t0 = monotonicUtime();
   std::vector<Recognition> recognized;
   {
@@ -100,11 +107,12 @@ FrameResult Frontend::track(Utime t, Features features) {
   }
   result.measurement_ms = msSince(t0);
 
-  View view;
-  view.utime = t;
-  view.features = std::move(features);
-  result.have_odometry = odometryAt(t, &view.odometry);
   t0 = monotonicUtime();
+  if (result.have_odometry && !refining_.empty()) {
+    observeRefining(features, view.odometry);
+    refineDue(t, view.odometry, &result);
+  }
+  view.features = std::move(features);
   if (result.have_odometry) considerCreation(std::move(view), &result);
   result.creation_ms = msSince(t0);
   return result;
@@ -127,8 +135,9 @@ void Frontend::considerCreation(View view, FrameResult* result) {
   views_.push_back(std::move(view));
   if (views_.size() < 3) return;
 
-  auto made = creator_.create(views_[0].features, views_[1].features, views_[2].features,
-                              {views_[0].odometry, views_[1].odometry, views_[2].odometry});
+  const std::array<Pose2, 3> odometry = {views_[0].odometry, views_[1].odometry,
+                                         views_[2].odometry};
+  auto made = creator_.create(views_[0].features, views_[1].features, views_[2].features, odometry);
   if (!made.ok()) {
     log::debug("no landmark from views at ", views_[0].utime, ": ", made.reason);
     result->creation_failure = made.reason;
@@ -137,6 +146,78 @@ void Frontend::considerCreation(View view, FrameResult* result) {
   }
   result->created = NewLandmark{std::move(views_[0]), std::move(made.landmark)};
   views_.clear();
+  if (params_.refine_distance_m > 0) {
+    RefiningLandmark refining;
+    refining.made = *result->created;
+    refining.model = refining.made.model(0);
+    refining.creation_odometry = odometry;
+    refining.last_view = odometry[2];
+    refining.path_end = odometry[2];
+    refining_.push_back(std::move(refining));
+  }
+}
+
+void Frontend::observeRefining(const Features& features, const Pose2& odometry) {
+  std::vector<cv::DMatch> matches;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> observations;
+  for (auto& refining : refining_) {
+    refining_matcher_.match(refining.model.descriptors, features.descriptors, &matches);
+    if (static_cast<int>(matches.size()) < params_.recognition.min_matches) continue;
+    points.clear();
+    observations.clear();
+    for (const auto& m : matches) {
+      points.push_back(refining.model.points_robot[static_cast<size_t>(m.queryIdx)]);
+      observations.push_back(features.normalized[static_cast<size_t>(m.trainIdx)]);
+    }
+    const auto pose = measurePose(points, observations, measurement_camera_, params_.measurement);
+    if (!pose.ok() ||
+        prefilter(pose.measurement, params_.prefilter) != MeasurementStatus::kAccepted)
+      continue;
+    LaterView view;
+    view.odometry = odometry;
+    view.robot1_T_robot = pose.measurement.creation_T_current_robot;
+    for (int i : pose.measurement.inliers) {
+      view.points.push_back(matches[static_cast<size_t>(i)].queryIdx);
+      view.observations.push_back(observations[static_cast<size_t>(i)]);
+    }
+    const Pose2 d = refining.last_view.between(odometry);
+    if (std::hypot(d.x, d.y) < params_.creation_baseline_m) {
+      refining.newest = std::move(view);
+      continue;
+    }
+    refining.later.push_back(std::move(view));
+    refining.newest.reset();
+    refining.last_view = odometry;
+  }
+}
+
+void Frontend::refineDue(Utime t, const Pose2& odometry, FrameResult* result) {
+  for (auto& refining : refining_) {
+    const Pose2 step = refining.path_end.between(odometry);
+    refining.path_m += std::hypot(step.x, step.y);
+    refining.path_end = odometry;
+  }
+  for (auto it = refining_.begin(); it != refining_.end(); ++it) {
+    const Pose2 from_first = it->creation_odometry[0].between(odometry);
+    const bool due = std::hypot(from_first.x, from_first.y) >= params_.refine_distance_m ||
+                     it->path_m >= 2 * params_.refine_distance_m ||
+                     toSeconds(t - it->made.first_view.utime) > params_.max_view_span_s;
+    if (!due) continue;
+    if (it->newest) it->later.push_back(std::move(*it->newest));
+    FrameResult::Refined refined;
+    refined.report =
+        refineLandmark(it->creation_odometry, it->later, creator_.focalPx(),
+                       creator_.robotTCamera(), params_.refinement, &it->made.landmark);
+    if (!refined.report.refined) {
+      log::debug("landmark from views at ", it->made.first_view.utime,
+                 " not refined: ", refined.report.reason);
+    }
+    refined.landmark = std::move(it->made);
+    result->refined = std::move(refined);
+    refining_.erase(it);
+    return;  // one per frame: the others are due at the next
+  }
 }
 
 void Frontend::addLandmark(LandmarkModel model) {

@@ -10,6 +10,7 @@
 // Threads: odometry and landmarks may arrive on another thread than the
 // frames; frames (extract(), track()) come from one thread.
 
+#include <array>
 #include <deque>
 #include <mutex>
 #include <optional>
@@ -20,6 +21,8 @@
 #include "frontend/features.hpp"
 #include "frontend/landmark_creation.hpp"
 #include "frontend/landmark_index.hpp"
+#include "frontend/landmark_refinement.hpp"
+#include "frontend/matching.hpp"
 #include "frontend/pose_measurement.hpp"
 #include "odometry/pose2.hpp"
 #include "util/time.hpp"
@@ -43,8 +46,16 @@ struct FrontendParams {
   // A frame farther than this from any odometry reading has no pose: it is
   // tracked, but takes no part in landmark creation.
   Utime max_odometry_gap = 200000;
+  // A landmark made here is handed on at once and refined later: the frames
+  // that see it until the robot has driven this far from its first view (or
+  // twice as far along its path, or max_view_span_s has passed), at least
+  // creation_baseline_m apart, refine its structure and scale
+  // (landmark_refinement.hpp) and FrameResult::refined hands it on again.
+  // 0: no refinement.
+  double refine_distance_m = 0.0;
   SiftParams sift;
   CreationParams creation;
+  RefinementParams refinement;
   RecognitionParams recognition;
   PoseMeasurementParams measurement;
   PrefilterParams prefilter;  // the stack's: whether a measurement covers the place
@@ -77,6 +88,13 @@ struct FrameResult {
   bool place_covered = false;  // a measurement the pre-filter accepts (near enough)
   bool have_odometry = false;  // false: the frame took no part in creation
   std::optional<NewLandmark> created;
+  // A landmark made earlier (its first view names it) whose refinement was
+  // due: its structure refined if report.refined, else as made.
+  struct Refined {
+    NewLandmark landmark;
+    RefinementReport report;
+  };
+  std::optional<Refined> refined;
   std::optional<std::string> creation_failure;  // why the window's three views made no landmark
   double recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
 };
@@ -96,17 +114,37 @@ class Frontend {
   void extract(const cv::Mat& gray, Features* out);
   // Recognizes and measures known landmarks in the frame's features, then
   // adds the frame to the creation window where no landmark covers the place.
-  // A landmark made here is not in the index yet: the caller adds it under the
-  // id it chooses (addLandmark(created->model(id))).
+  // A landmark made here is not in the index yet: the caller adds it under
+  // the id it chooses (addLandmark(created->model(id))).
   FrameResult track(Utime t, Features features);
 
   // The recognition index (every camera's landmarks).
   void addLandmark(LandmarkModel model);
   void removeLandmark(int64_t id);
   size_t numLandmarks() const;
+  size_t numRefiningLandmarks() const { return refining_.size(); }  // frames' thread only
 
  private:
+  // A landmark made here whose refinement is not due yet.
+  struct RefiningLandmark {
+    NewLandmark made;
+    LandmarkModel model;  // its points and descriptors, to find it in later frames
+    std::array<Pose2, 3> creation_odometry;
+    std::vector<LaterView> later;     // creation_baseline_m apart
+    std::optional<LaterView> newest;  // the latest view, if nearer the last kept
+    Pose2 last_view;                  // odometry of the last view kept for it
+    double path_m = 0;                // odometry path length since view 3
+    Pose2 path_end;                   // odometry at the last frame counted in path_m
+  };
+
   void considerCreation(View view, FrameResult* result);
+  // Finds each refining landmark in the frame (ratio test against its
+  // descriptors, then its pose measurement) and keeps the view: if far
+  // enough from its last one, else aside as the newest (the refinement uses
+  // the farthest view).
+  void observeRefining(const Features& features, const Pose2& odometry);
+  // Refines the first refining landmark that is due, into `result`.
+  void refineDue(Utime t, const Pose2& odometry, FrameResult* result);
 
   FrontendParams params_;
   FeatureExtractor extractor_;
@@ -117,6 +155,8 @@ class Frontend {
   mutable std::mutex odometry_mutex_;
   std::deque<std::pair<Utime, Pose2>> odometry_;  // recent cumulative poses
   std::deque<View> views_;                        // the creation window
+  std::vector<RefiningLandmark> refining_;        // made, refinement not due yet
+  RatioMatcher refining_matcher_;
 };
 
 }  // namespace vslam::frontend

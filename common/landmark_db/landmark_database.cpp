@@ -207,6 +207,52 @@ ProposalResult LandmarkDatabase::propose(LandmarkInfo info, LandmarkStructure st
   return r;
 }
 
+LandmarkDatabase::RevisionResult LandmarkDatabase::revise(int64_t id, const std::string& camera,
+                                                          int64_t proposal_id,
+                                                          std::vector<float> points) {
+  RevisionResult r;
+  if (!params_.allow_new_landmarks) {
+    r.reason = "the map is open for localization only (allow_new_landmarks: false)";
+    return r;
+  }
+  const auto it = infos_.find(id);
+  if (it == infos_.end()) {
+    r.reason = "no landmark " + std::to_string(id);
+    return r;
+  }
+  LandmarkInfo& info = it->second;
+  if (info.camera != camera || info.proposal_id != proposal_id) {
+    r.reason = "landmark " + std::to_string(id) + " was not proposed by " + camera + " as " +
+               std::to_string(proposal_id);
+    return r;
+  }
+  if (points.size() != 3 * static_cast<size_t>(info.num_points)) {
+    r.reason = std::to_string(points.size() / 3) + " points for landmark " + std::to_string(id) +
+               " of " + std::to_string(info.num_points);
+    return r;
+  }
+  for (float v : points) {
+    if (!std::isfinite(v)) {
+      r.reason = "non-finite points";
+      return r;
+    }
+  }
+  const int64_t revision = revision_ + 1;
+  store_->updatePoints(id, points, info.version + 1, revision);  // throws: nothing changed
+  revision_ = revision;
+  ++info.version;
+  info.revision = revision;
+  const auto active = active_.find(id);
+  if (active != active_.end()) {
+    auto refined = std::make_shared<LandmarkStructure>(*active->second.structure);
+    refined->points = std::move(points);
+    active->second.structure = std::move(refined);
+    active->second.revision = revision;
+  }
+  r.changes.push_back({ChangeOp::kUpdated, id, revision, false});
+  return r;
+}
+
 bool LandmarkDatabase::recordMeasurement(int64_t id, Utime utime) {
   const auto it = infos_.find(id);
   if (it == infos_.end()) return false;

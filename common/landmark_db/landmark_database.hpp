@@ -110,6 +110,18 @@ class LandmarkDatabase {
   ProposalResult propose(LandmarkInfo info, LandmarkStructure structure,
                          const std::optional<Pose2>& map_T_odom = std::nullopt);
 
+  // A landmark's 3-D points refined by the front-end that proposed it (the
+  // same camera and proposal_id and as many points; nothing else changes),
+  // durably stored before this returns; refused in a map opened for
+  // localization only. Empty `reason` and a kUpdated change
+  // (with the structure) on success; otherwise why not, and nothing changed.
+  struct RevisionResult {
+    std::string reason;
+    std::vector<Change> changes;
+  };
+  RevisionResult revise(int64_t id, const std::string& camera, int64_t proposal_id,
+                        std::vector<float> points);
+
   // Statistics; false for an unknown id. Written by flush().
   bool recordMeasurement(int64_t id, Utime utime);
   bool recordVerdict(int64_t id, bool accepted, Utime utime);

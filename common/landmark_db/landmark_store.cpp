@@ -391,6 +391,20 @@ void LandmarkStore::updateInfos(const std::vector<LandmarkInfo>& infos, int64_t 
   });
 }
 
+void LandmarkStore::updatePoints(int64_t id, const std::vector<float>& points, int32_t version,
+                                 int64_t revision) {
+  writeTransaction(revision, [&] {
+    Statement s(*db_,
+                "UPDATE landmarks SET points = :points, version = :version, revision = :revision"
+                " WHERE landmark_id = :landmark_id");
+    s.bindBlob(":points", points);
+    s.bind(":version", version);
+    s.bind(":revision", revision);
+    s.bind(":landmark_id", id);
+    s.run();
+  });
+}
+
 void LandmarkStore::remove(const std::vector<int64_t>& ids, int64_t revision) {
   writeTransaction(revision, [&] {
     Statement s(*db_, "DELETE FROM landmarks WHERE landmark_id = :landmark_id");

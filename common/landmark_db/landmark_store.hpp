@@ -88,6 +88,9 @@ class LandmarkStore {
   // insert assigns info.id = nextId() if info.id <= 0 and returns the id.
   int64_t insert(LandmarkInfo info, const LandmarkStructure& structure, int64_t revision);
   void updateInfos(const std::vector<LandmarkInfo>& infos, int64_t revision);
+  // A landmark's 3-D points replaced (a refinement), with its new version.
+  void updatePoints(int64_t id, const std::vector<float>& points, int32_t version,
+                    int64_t revision);
   void remove(const std::vector<int64_t>& ids, int64_t revision);
   void setRevision(int64_t revision);
 

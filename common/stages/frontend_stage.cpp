@@ -68,6 +68,12 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             "a landmark covers its place (no new one is made there) only when measured within "
             "this distance of its creation pose; 0: at any distance")
         .add(
+            "refine_distance_m", [](auto& p) -> auto& { return p.frontend.refine_distance_m; },
+            InRange{0, 5}, "m",
+            "a new landmark is refined with the frames that see it until the robot has driven "
+            "this far from its first view (longer baselines than its three views), and its "
+            "refined points sent to the landmark DB (OP_REVISED); 0: not refined")
+        .add(
             "max_measurements_per_frame",
             [](auto& p) -> auto& { return p.frontend.max_measurements_per_frame; }, InRange{1, 100},
             "", "recognized landmarks measured per frame, most matches first")
@@ -276,6 +282,9 @@ void FrontendStage::onUpdate(const vslam::landmark_update_t& m) {
   // The answer to one of this front-end's proposals.
   const bool mine = l.camera == camera().name && pending_.count(l.proposal_id) > 0;
   if (mine && (m.op == U::OP_CREATED || m.op == U::OP_SNAPSHOT || m.op == U::OP_REJECTED)) {
+    for (auto& [first_view, refining] : refining_) {
+      if (refining.proposal_id == l.proposal_id) refining.landmark_id = l.landmark_id;
+    }
     frontend_.removeLandmark(pending_[l.proposal_id].index_id);
     pending_.erase(l.proposal_id);
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
@@ -434,6 +443,7 @@ void FrontendStage::process(vslam::image_t& msg) {
     ctx_->bus.publish(params_.measurement_channel, out);
   }
   if (result.created) propose(*result.created);
+  if (result.refined) revise(*result.refined);
 
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.frames;
@@ -466,8 +476,46 @@ void FrontendStage::propose(const frontend::NewLandmark& created) {
     std::lock_guard<std::mutex> lock(replica_mutex_);
     frontend_.addLandmark(created.model(index_id));
     if (params_.use_landmark_db) pending_[id] = {proposal, ctx_->clock.now(), index_id};
+    if (params_.frontend.refine_distance_m > 0) {
+      refining_[created.first_view.utime] = {id, params_.use_landmark_db ? int64_t{-1} : id};
+    }
   }
   ctx_->bus.publish(params_.proposal_channel, proposal);
+}
+
+void FrontendStage::revise(const frontend::FrameResult::Refined& refined) {
+  int64_t proposal_id = -1, landmark_id = -1;
+  {
+    std::lock_guard<std::mutex> lock(replica_mutex_);
+    const auto it = refining_.find(refined.landmark.first_view.utime);
+    if (it == refining_.end()) return;
+    proposal_id = it->second.proposal_id;
+    landmark_id = it->second.landmark_id;
+    refining_.erase(it);
+    if (!refined.report.refined) return;
+    {
+      std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+      ++stats_.refined;
+    }
+    if (!params_.use_landmark_db) {
+      // No DB to tell: this front-end's own copy is refined.
+      frontend_.addLandmark(refined.landmark.model(landmark_id));
+      return;
+    }
+  }
+  if (landmark_id <= 0) {
+    log::info("landmark proposal ", proposal_id,
+              " refined before the landmark DB answered it: its structure stays as proposed");
+    return;
+  }
+  // The DB stores the refined points and publishes them (OP_UPDATED with the
+  // structure), which updates every replica, this one's too.
+  vslam::landmark_update_t revision = makeProposal(refined.landmark, proposal_id);
+  revision.op = vslam::landmark_update_t::OP_REVISED;
+  revision.landmark.landmark_id = landmark_id;
+  ctx_->bus.publish(params_.proposal_channel, revision);
+  std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+  ++stats_.revisions_sent;
 }
 
 vslam::landmark_update_t FrontendStage::makeProposal(const frontend::NewLandmark& created,
@@ -546,6 +594,8 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   report.add("measurements", static_cast<double>(d.measurements), "count");
   report.add("measurement_failures", static_cast<double>(d.measurement_failures), "count");
   report.add("landmarks_created", static_cast<double>(stats_.created), "count");
+  report.add("landmarks_refined", static_cast<double>(stats_.refined), "count");
+  report.add("landmark_revisions_sent", static_cast<double>(stats_.revisions_sent), "count");
   report.add("creation_failures", static_cast<double>(d.creation_failures), "count");
   report.add("sift_ms", d.sift_ms / frames, "ms");
   report.add("recognition_ms", d.recognition_ms / frames, "ms");

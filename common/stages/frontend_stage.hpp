@@ -96,8 +96,10 @@ class FrontendStage final : public bus::Stage {
     double sift_ms = 0, recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
     int64_t acknowledged = 0, rejected = 0, resent = 0, sync_requests = 0, replica_added = 0,
             replica_removed = 0;
-    int64_t prefetched = 0;  // frames whose features prefetch() extracted (replay)
-    int64_t gained = 0;      // dim frames scaled up before SIFT
+    int64_t prefetched = 0;      // frames whose features prefetch() extracted (replay)
+    int64_t gained = 0;          // dim frames scaled up before SIFT
+    int64_t refined = 0;         // landmarks refined from later views
+    int64_t revisions_sent = 0;  // of those, revisions sent to the DB
   };
 
   void onImage(const vslam::image_t& msg);
@@ -112,6 +114,8 @@ class FrontendStage final : public bus::Stage {
   void resendPending();
   void process(vslam::image_t& msg);
   void propose(const frontend::NewLandmark& created);
+  // Sends a refined landmark's structure to the DB (OP_REVISED).
+  void revise(const frontend::FrameResult::Refined& refined);
   vslam::landmark_update_t makeProposal(const frontend::NewLandmark& created, int64_t id) const;
 
   const config::CameraConfig& camera() const { return params_.frontend.camera; }
@@ -147,9 +151,16 @@ class FrontendStage final : public bus::Stage {
   };
   int64_t proposal_base_ = -1;          // first frame's utime: proposal ids of this run
   std::map<int64_t, Pending> pending_;  // by proposal_id
-  std::set<int64_t> replica_;           // global ids in the index
-  std::string database_id_;             // database the replica follows ("" none yet)
-  int64_t revision_ = -1;               // last revision applied (-1 unknown)
+  // Landmarks of this front-end being refined, by their first view's utime:
+  // the proposal and the global id (-1 until the DB answers).
+  struct Refining {
+    int64_t proposal_id = -1;
+    int64_t landmark_id = -1;
+  };
+  std::map<Utime, Refining> refining_;
+  std::set<int64_t> replica_;  // global ids in the index
+  std::string database_id_;    // database the replica follows ("" none yet)
+  int64_t revision_ = -1;      // last revision applied (-1 unknown)
   Utime last_request_ = 0;
   int64_t measurement_seq_ = 0;
   std::mutex stats_mutex_;

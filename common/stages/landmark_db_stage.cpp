@@ -226,7 +226,8 @@ void LandmarkDbStage::publish(const std::vector<landmark_db::Change>& changes, U
     m.op = opOf(c.op);
     const landmark_db::LandmarkInfo* info = db_->info(c.id);
     if (info != nullptr) {
-      const bool full = c.op == ChangeOp::kCreated || c.op == ChangeOp::kLoaded;
+      const bool full = c.op == ChangeOp::kCreated || c.op == ChangeOp::kLoaded ||
+                        (c.op == ChangeOp::kUpdated && !c.stats_only);
       const auto st = full ? db_->structure(c.id) : nullptr;
       fillLandmark(*info, st.get(), &m.landmark);
     } else {  // removed: only the id
@@ -276,8 +277,41 @@ void LandmarkDbStage::publishReply(int8_t op, const landmark_update_t& proposal,
   ctx_->bus.publish(params_.update_channel, m);
 }
 
+void LandmarkDbStage::onRevision(const landmark_update_t& msg) {
+  const vslam::landmark_t& l = msg.landmark;
+  landmark_db::LandmarkStructure st;
+  std::string why = toStructure(l, &st);
+  landmark_db::LandmarkDatabase::RevisionResult r;
+  if (why.empty()) {
+    try {
+      r = db_->revise(l.landmark_id, l.camera, l.proposal_id, std::move(st.points));
+    } catch (const std::exception& e) {
+      ++stats_.store_errors;
+      last_store_error_ = e.what();
+      logLimited(kLogStore, "cannot store the revision of landmark ", l.landmark_id, ": ", e.what(),
+                 "; kept as it was");
+      return;
+    }
+    why = r.reason;
+  }
+  if (!why.empty()) {
+    // A landmark pruned or merged since is not an error of the sender's;
+    // a malformed one is.
+    ++stats_.revisions_refused;
+    logLimited(kLogProposal, "revision of landmark ", l.landmark_id, " from ", l.camera,
+               " refused: ", why);
+    return;
+  }
+  ++stats_.revisions;
+  publish(r.changes, ctx_->clock.now());
+}
+
 void LandmarkDbStage::onProposal(const landmark_update_t& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (msg.op == landmark_update_t::OP_REVISED) {
+    onRevision(msg);
+    return;
+  }
   if (msg.op != landmark_update_t::OP_PROPOSED) {
     ctx_->bus.reportMalformed(params_.proposal_channel,
                               "op " + std::to_string(msg.op) + " on the proposal channel");
@@ -527,6 +561,8 @@ void LandmarkDbStage::collectHealth(bus::HealthReport& report) {
   report.add("commits", static_cast<double>(commits), "count");
   report.add("commit_ms", commit_ms, "ms");
   report.add("proposals", static_cast<double>(d.proposals), "count");
+  report.add("landmarks_revised", static_cast<double>(stats_.revisions), "count");
+  report.add("revisions_refused", static_cast<double>(stats_.revisions_refused), "count");
   report.add("created", static_cast<double>(d.created), "count");
   report.add("proposals_repeated", static_cast<double>(d.already_known), "count");
   report.add("proposals_refused", static_cast<double>(d.refused), "count");

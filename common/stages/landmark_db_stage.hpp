@@ -78,6 +78,7 @@ class LandmarkDbStage final : public bus::Stage {
     int64_t evicted = 0, loaded = 0, updates = 0;
     int64_t store_rejected = 0;  // proposals rejected because the map file could not be written
     double request_ms = 0;
+    int64_t revisions = 0, revisions_refused = 0;  // refined points from front-ends (OP_REVISED)
   };
   std::string last_store_error_;                   // the newest map file write failure, for health
   void checkDiskSpace(bus::HealthReport& report);  // mutex_ held
@@ -87,6 +88,7 @@ class LandmarkDbStage final : public bus::Stage {
 
   void open(bus::ExecutionMode mode);
   void onProposal(const vslam::landmark_update_t& msg);
+  void onRevision(const vslam::landmark_update_t& msg);  // mutex_ held
   void onMeasurement(const vslam::visual_measurement_t& msg, bool filtered);
   void onMap(const vslam::map_t& msg);
   void onPose(const vslam::pose_estimate_t& msg);

@@ -168,5 +168,48 @@ TEST_F(FrontendCore, ALandmarkFartherThanTheCoverageRadiusDoesNotCoverThePlace) 
   EXPECT_EQ(second_at, made_at + 21);
 }
 
+// With refine_distance_m a new landmark is handed on when made and measured
+// as usual; once the robot is that far from its first view it comes back
+// refined with the views 20 cm apart that saw it, and the refined landmark
+// still measures the robot as the truth has it.
+TEST_F(FrontendCore, ANewLandmarkIsRefinedFromLaterViews) {
+  params_.refine_distance_m = 0.8;
+  Frontend frontend(params_);
+  int made_at = -1;
+  const auto created = driveUntilCreated(frontend, 0, 40, &made_at);
+  ASSERT_TRUE(created);
+  EXPECT_EQ(made_at, 20) << "handed on when made, as without refinement";
+  EXPECT_EQ(frontend.numRefiningLandmarks(), 1u);
+  frontend.addLandmark(created->model(7));
+  for (int k = made_at + 1; k < 40; ++k) {
+    const FrameResult r = step(frontend, k);
+    ASSERT_GE(r.measurements.size(), 1u) << "frame " << k;
+    EXPECT_EQ(r.measurements[0].landmark_id, 7);
+    EXPECT_FALSE(r.refined) << "frame " << k;
+  }
+  FrameResult r = step(frontend, 40);  // 80 cm from the first view
+  ASSERT_TRUE(r.refined);
+  const RefinementReport& report = r.refined->report;
+  EXPECT_TRUE(report.refined) << report.reason;
+  EXPECT_EQ(report.later_views, 2) << "at 60 and 80 cm";
+  EXPECT_NEAR(report.span_m, 0.8, 1e-6);
+  EXPECT_NEAR(report.scale_change, 1.0, 0.03) << "exact odometry: little to correct";
+  EXPECT_EQ(r.refined->landmark.first_view.utime, created->first_view.utime);
+  EXPECT_EQ(r.refined->landmark.landmark.points_robot.size(),
+            created->landmark.points_robot.size());
+  EXPECT_EQ(frontend.numRefiningLandmarks(), 0u);
+
+  frontend.addLandmark(r.refined->landmark.model(7));  // as the replica does
+  for (int k = 41; k <= 44; ++k) {
+    r = step(frontend, k);
+    ASSERT_GE(r.measurements.size(), 1u) << "frame " << k;
+    EXPECT_EQ(r.measurements[0].landmark_id, 7);
+    const Pose2& m = r.measurements[0].measurement.relative;
+    EXPECT_NEAR(m.x, 0.02 * k, 0.05) << "frame " << k;
+    EXPECT_NEAR(m.y, 0.0, 0.05);
+    EXPECT_NEAR(m.theta, 0.0, 1.0 * kDeg);
+  }
+}
+
 }  // namespace
 }  // namespace vslam::frontend

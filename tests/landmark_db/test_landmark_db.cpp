@@ -98,6 +98,59 @@ TEST_F(LandmarkDbTest, AssignsStableIdsAndReloadsEverythingFromTheFile) {
   EXPECT_EQ(db->store().integrityCheck(), "ok");
 }
 
+// A front-end's refinement of its landmark (OP_REVISED): the points change,
+// durably, with a new version and a kUpdated change that carries the
+// structure; the descriptors and everything else stay; a revision from
+// another camera, of an unknown landmark or with another number of points is
+// refused and changes nothing.
+TEST_F(LandmarkDbTest, ARevisionFromItsProposerReplacesThePointsDurably) {
+  const fs::path file = dir_ / "map.vslam-map";
+  const auto original = syntheticStructure(40, 3);
+  std::vector<float> refined = original.points;
+  for (float& v : refined) v *= 0.95f;
+  {
+    auto db = openDb(file);
+    const auto created = db->propose(syntheticInfo("forward", 100, kT0, {}), original);
+    ASSERT_EQ(created.outcome, ProposalOutcome::kCreated) << created.reason;
+    const int64_t id = created.id;
+    const int32_t version = db->info(id)->version;
+
+    EXPECT_NE(db->revise(id, "backward", 100, refined).reason, "");
+    EXPECT_NE(db->revise(id, "forward", 101, refined).reason, "");
+    EXPECT_NE(db->revise(id + 1, "forward", 100, refined).reason, "");
+    EXPECT_NE(db->revise(id, "forward", 100, std::vector<float>(refined.begin(), refined.end() - 3))
+                  .reason,
+              "");
+    std::vector<float> not_finite = refined;
+    not_finite[4] = NAN;
+    EXPECT_NE(db->revise(id, "forward", 100, not_finite).reason, "");
+    EXPECT_EQ(db->revision(), 1) << "nothing changed";
+    EXPECT_EQ(db->structure(id)->points, original.points);
+
+    const auto r = db->revise(id, "forward", 100, refined);
+    ASSERT_EQ(r.reason, "");
+    ASSERT_EQ(r.changes.size(), 1u);
+    EXPECT_EQ(r.changes[0].op, ChangeOp::kUpdated);
+    EXPECT_FALSE(r.changes[0].stats_only) << "the structure changed";
+    EXPECT_EQ(r.changes[0].revision, 2);
+    EXPECT_EQ(db->info(id)->version, version + 1);
+    EXPECT_EQ(db->structure(id)->points, refined);
+    EXPECT_EQ(db->structure(id)->descriptors, original.descriptors);
+  }
+  DatabaseParams localization;
+  localization.allow_new_landmarks = false;
+  auto frozen = openDb(file, localization);
+  EXPECT_NE(frozen->revise(1, "forward", 100, original.points).reason, "")
+      << "a map opened for localization only stays as it is";
+  frozen.reset();
+  auto db = openDb(file);
+  ASSERT_NE(db->structure(1), nullptr);
+  EXPECT_EQ(db->structure(1)->points, refined);
+  EXPECT_EQ(db->structure(1)->keypoints, original.keypoints);
+  EXPECT_EQ(db->revision(), 2);
+  EXPECT_EQ(db->store().integrityCheck(), "ok");
+}
+
 TEST_F(LandmarkDbTest, AClosedMapIsOneFileThatAReadOnlyLookLeavesAlone) {
   const fs::path file = dir_ / "map.vslam-map";
   {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <vslam/health_t.hpp>
@@ -192,6 +193,48 @@ TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
   fs::remove_all(dir);
 }
 
+// A front-end's refined points (OP_REVISED on the proposal channel): stored
+// and published as OP_UPDATED with the whole structure, so replicas adopt
+// them; a revision from another camera is refused and publishes nothing.
+TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_stage_revision");
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  U revision = proposal("forward", 11, kT0, 1);
+  revision.op = U::OP_REVISED;
+  revision.landmark.landmark_id = 1;
+  for (auto& p : revision.landmark.points) p[0] *= 0.9f;
+  {
+    bus::LogWriter log(dir / "in.lcmlog");
+    log.writeMessage(kT0, "LANDMARK_PROPOSAL", proposal("forward", 11, kT0, 1));
+    U stranger = revision;
+    stranger.landmark.camera = "backward";
+    log.writeMessage(kT0 + 1000, "LANDMARK_PROPOSAL", stranger);
+    log.writeMessage(kT0 + 2000, "LANDMARK_PROPOSAL", revision);
+  }
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  bus::LockstepReplay replay(options);
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+  replay.run();
+
+  std::vector<U> updates;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel == "LANDMARK_UPDATE") updates.push_back(decode<U>(e));
+  }
+  ASSERT_EQ(updates.size(), 2u) << "created, then one update: the stranger's changes nothing";
+  EXPECT_EQ(updates[0].op, U::OP_CREATED);
+  EXPECT_EQ(updates[1].op, U::OP_UPDATED);
+  EXPECT_EQ(updates[1].revision, 2);
+  EXPECT_EQ(updates[1].landmark.landmark_id, 1);
+  EXPECT_EQ(updates[1].landmark.version, updates[0].landmark.version + 1);
+  ASSERT_EQ(updates[1].landmark.num_points, 30);
+  EXPECT_EQ(updates[1].landmark.points, revision.landmark.points);
+  EXPECT_EQ(updates[1].landmark.descriptors, updates[0].landmark.descriptors);
+  fs::remove_all(dir);
+}
+
 // Both front-ends and one DB on rendered frames of the apartment.
 TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   const fs::path dir = vslam::test::scratchDir("landmark_db_shared");
@@ -263,6 +306,71 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   runOnce(dir / "run2.lcmlog");
   EXPECT_EQ(vslam::test::readFileBytes(dir / "run1.lcmlog"),
             vslam::test::readFileBytes(dir / "run2.lcmlog"));
+  fs::remove_all(dir);
+}
+
+// With refine_distance_m both front-ends refine their landmarks from later
+// views and send the refined points (OP_REVISED, with the global id the DB
+// gave); the DB stores them and publishes them with the structure, so the
+// replicas adopt them.
+TEST(LandmarkDbStage, FrontendsReviseTheirLandmarksAndTheDbPublishesTheRefinedPoints) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_revised");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  std::string text = vslam::test::readFileBytes(source / "config/vslam.yaml");
+  const std::string robot_line = "robot: robot/sim_two_camera.yaml";
+  ASSERT_NE(text.find(robot_line), std::string::npos);
+  text.replace(text.find(robot_line), robot_line.size(),
+               "robot: " + (source / "config/robot/sim_two_camera.yaml").string());
+  for (const char* camera : {"camera: forward\n", "camera: backward\n"}) {
+    const size_t at = text.find(std::string("    ") + camera);
+    ASSERT_NE(at, std::string::npos) << camera;
+    text.insert(at, "    refine_distance_m: 0.8\n");
+  }
+  { std::ofstream(dir / "vslam.yaml") << text; }
+  const auto stack = config::StackConfig::loadFile(dir / "vslam.yaml");
+  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
+  scenario.duration_s = 30;
+  {
+    sim::Simulator simulator(scenario, stack.robot, kT0);
+    sim::LogFileSink sink((dir / "sim.lcmlog").string());
+    while (simulator.step(sink)) {
+    }
+  }
+  bus::ReplayOptions options;
+  options.input = dir / "sim.lcmlog";
+  options.output = dir / "run.lcmlog";
+  options.keep_inputs = false;
+  bus::LockstepReplay replay(options);
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+  for (const char* instance : {"frontend_forward", "frontend_backward"}) {
+    replay.addStage(instance, stages::builtinStages().create(stack, instance));
+  }
+  replay.run();
+
+  std::map<int64_t, U> created, revised, republished;  // by global id
+  for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
+    if (e.channel != "LANDMARK_PROPOSAL" && e.channel != "LANDMARK_UPDATE") continue;
+    const U u = decode<U>(e);
+    if (u.op == U::OP_CREATED) created[u.landmark.landmark_id] = u;
+    if (u.op == U::OP_REVISED) revised[u.landmark.landmark_id] = u;
+    if (u.op == U::OP_UPDATED && u.landmark.num_points > 0) republished[u.landmark.landmark_id] = u;
+  }
+  ASSERT_GE(created.size(), 2u);
+  ASSERT_GE(revised.size(), 1u) << "no landmark refined in 30 s of the apartment";
+  for (const auto& [id, r] : revised) {
+    SCOPED_TRACE(id);
+    ASSERT_TRUE(created.count(id)) << "a revision of a landmark the DB never created";
+    const U& c = created.at(id);
+    EXPECT_EQ(r.landmark.camera, c.landmark.camera);
+    EXPECT_EQ(r.landmark.proposal_id, c.landmark.proposal_id);
+    EXPECT_EQ(r.landmark.descriptors, c.landmark.descriptors) << "only the points move";
+    EXPECT_NE(r.landmark.points, c.landmark.points);
+    ASSERT_TRUE(republished.count(id)) << "the DB did not publish the refined points";
+    EXPECT_EQ(republished.at(id).landmark.points, r.landmark.points);
+    EXPECT_GT(republished.at(id).landmark.version, c.landmark.version);
+  }
+  RecordProperty("landmarks", static_cast<int>(created.size()));
+  RecordProperty("revised", static_cast<int>(revised.size()));
   fs::remove_all(dir);
 }
 
