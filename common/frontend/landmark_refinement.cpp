@@ -198,11 +198,7 @@ RefinementReport refineLandmark(const std::array<Pose2, 3>& creation_odometry,
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::HuberLoss loss(params.huber_px);
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_SCHUR;
-  options.num_threads = 1;
-  options.max_num_iterations = params.max_iterations;
-  options.logging_type = ceres::SILENT;
+  ceres::Solver::Options options = smallProblemOptions(params.max_iterations);
 
   std::vector<double> components;
   for (int round = 0; round < params.max_rounds; ++round) {

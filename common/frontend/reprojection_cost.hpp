@@ -56,4 +56,15 @@ struct ReferenceReprojectionCost {
   double focal;
 };
 
+// Solver options of the front-end's bundle adjustments: tens of points and a
+// few views, solved on the calling thread, silently.
+inline ceres::Solver::Options smallProblemOptions(int max_iterations) {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.num_threads = 1;
+  options.max_num_iterations = max_iterations;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
+
 }  // namespace vslam::frontend

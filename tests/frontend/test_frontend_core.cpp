@@ -83,6 +83,18 @@ class FrontendCore : public ::testing::Test {
     return std::nullopt;
   }
 
+  // Frame k's first measurement is of landmark `id` and, against the truth,
+  // puts the robot 2 cm per frame ahead of the creation pose at frame 0
+  // (stated tolerance for clean renders: 5 cm, 1 degree).
+  static void expectMeasuresTheTruth(const FrameResult& r, int k, int64_t id) {
+    ASSERT_GE(r.measurements.size(), 1u) << "frame " << k;
+    EXPECT_EQ(r.measurements[0].landmark_id, id);
+    const Pose2& m = r.measurements[0].measurement.relative;
+    EXPECT_NEAR(m.x, 0.02 * k, 0.05) << "frame " << k;
+    EXPECT_NEAR(m.y, 0.0, 0.05);
+    EXPECT_NEAR(m.theta, 0.0, 1.0 * kDeg);
+  }
+
   static inline std::unique_ptr<config::RobotConfig> robot_;
   static inline std::unique_ptr<world::World> world_;
   static inline std::unique_ptr<world::Renderer> renderer_;
@@ -122,17 +134,10 @@ TEST_F(FrontendCore, MakesALandmarkFromThreeViewsThenMeasuresItInsteadOfMakingAn
   frontend.addLandmark(created->model(7));
   for (int k = made_at + 1; k <= made_at + 4; ++k) {
     const FrameResult r = step(frontend, k);
-    ASSERT_GE(r.measurements.size(), 1u) << "frame " << k;
-    EXPECT_EQ(r.measurements[0].landmark_id, 7);
+    expectMeasuresTheTruth(r, k, 7);
     EXPECT_TRUE(r.place_covered);
     EXPECT_FALSE(r.created);
     EXPECT_FALSE(r.creation_failure) << "a covered place collects no views";
-    // Against the truth: the robot 2 cm per frame ahead of the creation pose
-    // (stated tolerance for clean renders: 5 cm, 1 degree).
-    const Pose2& m = r.measurements[0].measurement.relative;
-    EXPECT_NEAR(m.x, 0.02 * k, 0.05) << "frame " << k;
-    EXPECT_NEAR(m.y, 0.0, 0.05);
-    EXPECT_NEAR(m.theta, 0.0, 1.0 * kDeg);
   }
 }
 
@@ -200,15 +205,7 @@ TEST_F(FrontendCore, ANewLandmarkIsRefinedFromLaterViews) {
   EXPECT_EQ(frontend.numRefiningLandmarks(), 0u);
 
   frontend.addLandmark(r.refined->landmark.model(7));  // as the replica does
-  for (int k = 41; k <= 44; ++k) {
-    r = step(frontend, k);
-    ASSERT_GE(r.measurements.size(), 1u) << "frame " << k;
-    EXPECT_EQ(r.measurements[0].landmark_id, 7);
-    const Pose2& m = r.measurements[0].measurement.relative;
-    EXPECT_NEAR(m.x, 0.02 * k, 0.05) << "frame " << k;
-    EXPECT_NEAR(m.y, 0.0, 0.05);
-    EXPECT_NEAR(m.theta, 0.0, 1.0 * kDeg);
-  }
+  for (int k = 41; k <= 44; ++k) expectMeasuresTheTruth(step(frontend, k), k, 7);
 }
 
 }  // namespace

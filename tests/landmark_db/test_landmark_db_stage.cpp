@@ -63,6 +63,42 @@ stages::LandmarkDbParams dbParams(const config::StackConfig& stack) {
   return p;
 }
 
+// The DB stage alone, in lock-step replay over dir/in.lcmlog into dir/out.lcmlog.
+void replayDb(const fs::path& dir, const config::StackConfig& stack) {
+  bus::ReplayOptions options;
+  options.input = dir / "in.lcmlog";
+  options.output = dir / "out.lcmlog";
+  bus::LockstepReplay replay(options);
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+  replay.run();
+}
+
+// The first `duration_s` of the apartment scenario, rendered into dir/sim.lcmlog.
+void simulateApartment(const fs::path& dir, const config::StackConfig& stack, double duration_s) {
+  sim::Scenario scenario =
+      sim::Scenario::loadByName("apartment", fs::path(VSLAM_SOURCE_DIR) / "config/scenarios");
+  scenario.duration_s = duration_s;
+  sim::Simulator simulator(scenario, stack.robot, kT0);
+  sim::LogFileSink sink((dir / "sim.lcmlog").string());
+  while (simulator.step(sink)) {
+  }
+}
+
+// Both front-ends and the DB over dir/sim.lcmlog, in lock-step replay.
+void replayFrontendsAndDb(const fs::path& dir, const config::StackConfig& stack,
+                          const fs::path& out) {
+  bus::ReplayOptions options;
+  options.input = dir / "sim.lcmlog";
+  options.output = out;
+  options.keep_inputs = false;
+  bus::LockstepReplay replay(options);
+  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
+  for (const char* instance : {"frontend_forward", "frontend_backward"}) {
+    replay.addStage(instance, stages::builtinStages().create(stack, instance));
+  }
+  replay.run();
+}
+
 }  // namespace
 
 TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
@@ -123,12 +159,7 @@ TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
     t += 2 * kMicrosPerSecond;
     log.writeMessage(t, "LANDMARK_REQUEST", r);
   }
-  bus::ReplayOptions options;
-  options.input = dir / "in.lcmlog";
-  options.output = dir / "out.lcmlog";
-  bus::LockstepReplay replay(options);
-  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
-  replay.run();
+  replayDb(dir, stack);
 
   std::vector<U> updates;
   std::vector<vslam::landmark_summary_t> summaries;
@@ -212,12 +243,7 @@ TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
     log.writeMessage(kT0 + 1000, "LANDMARK_PROPOSAL", stranger);
     log.writeMessage(kT0 + 2000, "LANDMARK_PROPOSAL", revision);
   }
-  bus::ReplayOptions options;
-  options.input = dir / "in.lcmlog";
-  options.output = dir / "out.lcmlog";
-  bus::LockstepReplay replay(options);
-  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
-  replay.run();
+  replayDb(dir, stack);
 
   std::vector<U> updates;
   for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
@@ -240,27 +266,9 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   const fs::path dir = vslam::test::scratchDir("landmark_db_shared");
   const fs::path source(VSLAM_SOURCE_DIR);
   const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
-  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
-  scenario.duration_s = 80;  // the forward camera first measures a backward landmark at ~68 s
-  {
-    sim::Simulator simulator(scenario, stack.robot, kT0);
-    sim::LogFileSink sink((dir / "sim.lcmlog").string());
-    while (simulator.step(sink)) {
-    }
-  }
-  const auto runOnce = [&](const fs::path& out) {
-    bus::ReplayOptions options;
-    options.input = dir / "sim.lcmlog";
-    options.output = out;
-    options.keep_inputs = false;
-    bus::LockstepReplay replay(options);
-    replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
-    for (const char* instance : {"frontend_forward", "frontend_backward"}) {
-      replay.addStage(instance, stages::builtinStages().create(stack, instance));
-    }
-    replay.run();
-  };
-  runOnce(dir / "run1.lcmlog");
+  // The forward camera first measures a backward landmark at ~68 s.
+  simulateApartment(dir, stack, 80);
+  replayFrontendsAndDb(dir, stack, dir / "run1.lcmlog");
 
   std::map<int64_t, std::string> creator;  // global id -> camera
   std::set<std::pair<std::string, int64_t>> proposed, answered;
@@ -303,7 +311,7 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   RecordProperty("cross_backward", cross["backward"]);
 
   // Deterministic: a second run gives the same bytes.
-  runOnce(dir / "run2.lcmlog");
+  replayFrontendsAndDb(dir, stack, dir / "run2.lcmlog");
   EXPECT_EQ(vslam::test::readFileBytes(dir / "run1.lcmlog"),
             vslam::test::readFileBytes(dir / "run2.lcmlog"));
   fs::remove_all(dir);
@@ -328,24 +336,8 @@ TEST(LandmarkDbStage, FrontendsReviseTheirLandmarksAndTheDbPublishesTheRefinedPo
   }
   { std::ofstream(dir / "vslam.yaml") << text; }
   const auto stack = config::StackConfig::loadFile(dir / "vslam.yaml");
-  sim::Scenario scenario = sim::Scenario::loadByName("apartment", source / "config/scenarios");
-  scenario.duration_s = 30;
-  {
-    sim::Simulator simulator(scenario, stack.robot, kT0);
-    sim::LogFileSink sink((dir / "sim.lcmlog").string());
-    while (simulator.step(sink)) {
-    }
-  }
-  bus::ReplayOptions options;
-  options.input = dir / "sim.lcmlog";
-  options.output = dir / "run.lcmlog";
-  options.keep_inputs = false;
-  bus::LockstepReplay replay(options);
-  replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(dbParams(stack)));
-  for (const char* instance : {"frontend_forward", "frontend_backward"}) {
-    replay.addStage(instance, stages::builtinStages().create(stack, instance));
-  }
-  replay.run();
+  simulateApartment(dir, stack, 30);
+  replayFrontendsAndDb(dir, stack, dir / "run.lcmlog");
 
   std::map<int64_t, U> created, revised, republished;  // by global id
   for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
