@@ -566,6 +566,19 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
     image_watchdog_->report(ctx_->clock.now(), report);
     odometry_watchdog_->report(ctx_->clock.now(), report);
   }
+  // The replica's state first, under its own lock alone: the LCM thread
+  // takes replica_mutex_ before stats_mutex_, so this must not nest them the
+  // other way round.
+  size_t pending = 0, replica = 0;
+  int64_t revision = -1;
+  bool database_heard = false;
+  {
+    std::lock_guard<std::mutex> replica_lock(replica_mutex_);
+    pending = pending_.size();
+    replica = replica_.size();
+    revision = revision_;
+    database_heard = !database_id_.empty();
+  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const Stats d{stats_.frames - last_.frames,
                 stats_.features - last_.features,
@@ -601,15 +614,12 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   report.add("recognition_ms", d.recognition_ms / frames, "ms");
   report.add("measurement_ms", d.measurement_ms / frames, "ms");
   report.add("creation_ms", d.creation_ms / frames, "ms");
-  {
-    report.add("landmarks_known", static_cast<double>(frontend_.numLandmarks()), "count");
-    std::lock_guard<std::mutex> replica_lock(replica_mutex_);
-    if (params_.use_landmark_db) {
-      report.add("landmarks_pending", static_cast<double>(pending_.size()), "count");
-      report.add("replica_landmarks", static_cast<double>(replica_.size()), "count");
-      report.add("replica_revision", static_cast<double>(revision_), "");
-      if (database_id_.empty()) report.warn("no landmark database heard yet");
-    }
+  report.add("landmarks_known", static_cast<double>(frontend_.numLandmarks()), "count");
+  if (params_.use_landmark_db) {
+    report.add("landmarks_pending", static_cast<double>(pending), "count");
+    report.add("replica_landmarks", static_cast<double>(replica), "count");
+    report.add("replica_revision", static_cast<double>(revision), "");
+    if (!database_heard) report.warn("no landmark database heard yet");
   }
   if (params_.use_landmark_db) {
     report.add("proposals_acknowledged", static_cast<double>(stats_.acknowledged), "count");

@@ -280,26 +280,29 @@ void LandmarkDbStage::publishReply(int8_t op, const landmark_update_t& proposal,
 void LandmarkDbStage::onRevision(const landmark_update_t& msg) {
   const vslam::landmark_t& l = msg.landmark;
   landmark_db::LandmarkStructure st;
-  std::string why = toStructure(l, &st);
-  landmark_db::LandmarkDatabase::RevisionResult r;
-  if (why.empty()) {
-    try {
-      r = db_->revise(l.landmark_id, l.camera, l.proposal_id, std::move(st.points));
-    } catch (const std::exception& e) {
-      ++stats_.store_errors;
-      last_store_error_ = e.what();
-      logLimited(kLogStore, "cannot store the revision of landmark ", l.landmark_id, ": ", e.what(),
-                 "; kept as it was");
-      return;
-    }
-    why = r.reason;
+  const std::string malformed = toStructure(l, &st);
+  if (!malformed.empty()) {
+    ++stats_.revisions_refused;
+    ctx_->bus.reportMalformed(params_.proposal_channel, "revision of landmark " +
+                                                            std::to_string(l.landmark_id) +
+                                                            " of '" + l.camera + "': " + malformed);
+    return;
   }
-  if (!why.empty()) {
-    // A landmark pruned or merged since is not an error of the sender's;
-    // a malformed one is.
+  landmark_db::LandmarkDatabase::RevisionResult r;
+  try {
+    r = db_->revise(l.landmark_id, l.camera, l.proposal_id, std::move(st.points));
+  } catch (const std::exception& e) {
+    ++stats_.store_errors;
+    last_store_error_ = e.what();
+    logLimited(kLogStore, "cannot store the revision of landmark ", l.landmark_id, ": ", e.what(),
+               "; kept as it was");
+    return;
+  }
+  if (!r.reason.empty()) {
+    // Not the sender's fault when the landmark was pruned or merged since.
     ++stats_.revisions_refused;
     logLimited(kLogProposal, "revision of landmark ", l.landmark_id, " from ", l.camera,
-               " refused: ", why);
+               " refused: ", r.reason);
     return;
   }
   ++stats_.revisions;

@@ -226,7 +226,8 @@ TEST(LandmarkDbStage, AnswersProposalsRequestsAndCountsBadInput) {
 
 // A front-end's refined points (OP_REVISED on the proposal channel): stored
 // and published as OP_UPDATED with the whole structure, so replicas adopt
-// them; a revision from another camera is refused and publishes nothing.
+// them; a revision from another camera, or with a non-finite point, is
+// refused and publishes nothing.
 TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
   const fs::path dir = vslam::test::scratchDir("landmark_db_stage_revision");
   const auto stack =
@@ -241,6 +242,9 @@ TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
     U stranger = revision;
     stranger.landmark.camera = "backward";
     log.writeMessage(kT0 + 1000, "LANDMARK_PROPOSAL", stranger);
+    U malformed = revision;
+    malformed.landmark.points[2][1] = NAN;
+    log.writeMessage(kT0 + 1500, "LANDMARK_PROPOSAL", malformed);
     log.writeMessage(kT0 + 2000, "LANDMARK_PROPOSAL", revision);
   }
   replayDb(dir, stack);
@@ -249,7 +253,8 @@ TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
   for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
     if (e.channel == "LANDMARK_UPDATE") updates.push_back(decode<U>(e));
   }
-  ASSERT_EQ(updates.size(), 2u) << "created, then one update: the stranger's changes nothing";
+  ASSERT_EQ(updates.size(), 2u)
+      << "created, then one update: the stranger's and the malformed one change nothing";
   EXPECT_EQ(updates[0].op, U::OP_CREATED);
   EXPECT_EQ(updates[1].op, U::OP_UPDATED);
   EXPECT_EQ(updates[1].revision, 2);
