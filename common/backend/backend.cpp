@@ -396,6 +396,13 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   counters_.drift_corrections += u.drift_corrected;
   counters_.look_alike_measurements_ignored += u.kind == UpdateKind::kIgnored;
   counters_.resamplings += u.resampled;
+  counters_.landmarks_moved_after_relocalization += u.moved;
+  if (u.moved && graph_) {
+    // Its creation node is where the robot was thought to be after it had
+    // been moved: it would pull the graph there. The filter keeps it.
+    graph_->removeLandmark(m.landmark_id);
+    graph_last_used_.erase(m.landmark_id);
+  }
   if (u.kidnap_detected) deferred_.clear();
   if (u.deferred) deferred_[m.landmark_id] = m;
   if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();

@@ -148,6 +148,10 @@ struct BackendCounters {
   // Landmarks first seen while kidnapped, mapped at the relocalization from
   // their newest measurement carried by the odometry (UpdateReport::deferred).
   int64_t landmarks_mapped_after_relocalization = 0;
+  // Landmarks placed before a kidnapping was detected that a measurement
+  // after the relocalization put where it moved them (UpdateReport::moved);
+  // the filter keeps them, the pose graph drops them.
+  int64_t landmarks_moved_after_relocalization = 0;
   int64_t resamplings = 0;
   int64_t odometry_steps = 0;
   int64_t odometry_ignored = 0;  // stale, invalid, reset, implausible

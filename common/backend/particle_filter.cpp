@@ -25,11 +25,26 @@ enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4, kM
 // their cost must not grow with a long run of inconsistent measurements
 // (a look-alike that never gives enough evidence).
 constexpr size_t kMaxRunMeasurements = 64;
+// Recent inconsistent measurements kept to find where a kidnapping began.
+constexpr size_t kMaxRecentInconsistent = 256;
 
 template <class T>
-void pushBounded(std::vector<T>& run, T value) {
-  if (run.size() >= kMaxRunMeasurements) run.erase(run.begin());
+void pushBounded(std::vector<T>& run, T value, size_t max_size = kMaxRunMeasurements) {
+  if (run.size() >= max_size) run.erase(run.begin());
   run.push_back(std::move(value));
+}
+
+// A landmark estimate moved by a map-frame transform.
+LandmarkEstimate movedBy(const LandmarkEstimate& lm, const Pose2& shift) {
+  LandmarkEstimate out = lm;
+  out.mean = shift.compose(toPose(lm.mean)).vector();
+  const double c = std::cos(shift.theta), s = std::sin(shift.theta);
+  Eigen::Matrix3d j;
+  j << c, -s, 0,  //
+      s, c, 0,    //
+      0, 0, 1;
+  out.covariance = j * lm.covariance * j.transpose();
+  return out;
 }
 
 // E[exp(-d^2/2)] for d^2 ~ chi^2 with 3 degrees of freedom: (1 + 1)^(-3/2).
@@ -146,6 +161,7 @@ void FilterParams::validate() const {
           "kidnap detect_min_span_s, suspect_after and cancel_count must be >= 0");
   require(kidnap.cluster_xy_m > 0 && kidnap.cluster_theta_rad > 0,
           "kidnap cluster tolerances must be > 0");
+  require(std::isfinite(kidnap.retest_margin_s), "kidnap retest_margin_s must be finite");
   require(outlier.probability >= 0 && outlier.probability < 1,
           "outlier probability must be in [0, 1)");
   require(outlier.area_m2 > 0 && outlier.gate_mahalanobis_sq > 0,
@@ -265,6 +281,8 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     const auto slot = static_cast<uint32_t>(ids_.size());
     slots_.emplace(obs.landmark_id, slot);
     ids_.push_back(obs.landmark_id);
+    placed_utime_.push_back(obs.utime);
+    retest_pending_.push_back(0);
     return initialize(slot, obs, r);
   }
   const uint32_t slot = found->second;
@@ -287,17 +305,22 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   // plain numbers when the particles disagree with the measurements).
   const std::vector<double> log_w = normalizedLogWeights();
 
+  // (0) Placed before a kidnapping was detected: where does it belong?
+  UpdateReport rep;
+  if (!kidnapped_ && retest_pending_[slot]) rep.moved = retest(slot, obs, r, log_w);
+
   // (1) How well do the particles, as they are, explain the measurement?
   const double agreement = agreementWith(slot, obs, r, log_w, &innovations_);
 
-  // (2) Mode: kidnap detection and recovery, the dynamic ratio.
-  UpdateReport rep;
+  // (2) Mode: kidnap detection and recovery, the dynamic ratio. A landmark
+  // still to be re-tested gives no kidnap evidence: it may be either side.
   rep.agreement = agreement;
   rep.suspect = suspect;
   rep.recovered = rep.cancelled = cancelled;
   const MixtureParams& mix = params_.mixture;
   bool confirmed_by_cluster = false;
-  const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
+  const bool all_dual = updateMode(slot, obs, agreement, suspect || retest_pending_[slot] != 0,
+                                   &rep, &confirmed_by_cluster);
   // (With the robust likelihood.) A known look-alike's measurement weighs
   // the particles only if it is consistent (a >= recover_agreement, as its
   // record counts it): otherwise it is most likely the look-alike again, and
@@ -333,6 +356,13 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     rep.recovered = true;
     recover_count_ = 0;
     recover_landmarks_.clear();
+  }
+  if (rep.recovered && !rep.cancelled) {
+    // Relocalized: the landmarks placed while the robot may already have
+    // been moved are re-tested with the shift from the pose held to here.
+    retest_shift_ = estimate().mean.compose(held_.inverse());
+    for (uint32_t s : retest_candidates_) retest_pending_[s] = 1;
+    retest_candidates_.clear();
   }
   if (!kidnapped_) {
     reloc_run_.clear();
@@ -464,7 +494,11 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     // look-alike's inconsistent measurement neither extends nor ends it.
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
-      if (!suspect) pushBounded(low_run_, implied(obs, slot));
+      if (!suspect) {
+        pushBounded(low_run_, implied(obs, slot));
+        if (kp.retest_margin_s >= 0)
+          pushBounded(recent_inconsistent_, implied(obs, slot), kMaxRecentInconsistent);
+      }
     } else {
       endLowRun();
     }
@@ -498,6 +532,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
+        chooseRetestCandidates(*evidence);
         reloc_run_.clear();
         recover_count_ = 0;
         recover_landmarks_.clear();
@@ -528,6 +563,7 @@ bool ParticleFilter::cancelKidnapping(uint32_t slot, const Observation& obs,
   particles_.swap(before_kidnap_);
   since_update_ = before_kidnap_since_update_;
   kidnapped_ = false;
+  retest_candidates_.clear();  // the robot was not moved
   // The landmarks that declared it were seen where they are not.
   for (uint32_t s : kidnap_evidence_slots_) record(s).contradicted += 1;
   low_run_.clear();
@@ -553,20 +589,64 @@ double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
 double ParticleFilter::agreementWith(const std::vector<Particle>& particles, uint32_t slot,
                                      const Observation& obs, const Eigen::Matrix3d& r,
                                      const std::vector<double>& log_w,
-                                     std::vector<Innovation>* innovations) const {
+                                     std::vector<Innovation>* innovations,
+                                     const Pose2* shift) const {
   // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
   const size_t m = particles.size();
   std::vector<double> d2(m);
   if (innovations != nullptr) innovations->resize(m);
   forEachIndex(m, [&](size_t i) {
     const LandmarkEstimate* lm = particles[i].map.find(slot);
-    const Innovation in = innovation(*lm, particles[i].pose, obs.relative, r);
+    const Innovation in =
+        shift == nullptr ? innovation(*lm, particles[i].pose, obs.relative, r)
+                         : innovation(movedBy(*lm, *shift), particles[i].pose, obs.relative, r);
     d2[i] = in.mahalanobis_sq;
     if (innovations != nullptr) (*innovations)[i] = in;
   });
   double agreement = 0;
   for (size_t i = 0; i < m; ++i) agreement += std::exp(log_w[i] - 0.5 * d2[i]);
   return std::min(1.0, agreement / kConsistentAgreement);
+}
+
+bool ParticleFilter::retest(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
+                            const std::vector<double>& log_w) {
+  const double enough = params_.kidnap.recover_agreement;
+  const double kept = agreementWith(particles_, slot, obs, r, log_w, nullptr);
+  const double moved = agreementWith(particles_, slot, obs, r, log_w, nullptr, &retest_shift_);
+  if (moved >= enough && moved > kept) {
+    forEachParticle([&](size_t i) {
+      LandmarkEstimate& lm = particles_[i].map.mutableSlot(slot);
+      lm = movedBy(lm, retest_shift_);
+    });
+    retest_pending_[slot] = 0;
+    return true;
+  }
+  if (kept >= enough) retest_pending_[slot] = 0;
+  return false;
+}
+
+void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
+  const KidnapParams& kp = params_.kidnap;
+  retest_candidates_.clear();
+  if (kp.retest_margin_s < 0) return;
+  // Where the robot was moved to: the earliest recent inconsistent
+  // measurement whose implied pose, carried to now, is near the evidence.
+  // The robot was moved before it; landmarks placed from a little before it
+  // on may have been placed from the pose it was thought to be at.
+  int64_t onset = std::numeric_limits<int64_t>::max();
+  for (const Implied& m : recent_inconsistent_) {
+    const Pose2 p = m.implied.compose(m.odometry.between(odometry_));
+    if (std::hypot(p.x - at.x, p.y - at.y) <= 2 * kp.cluster_xy_m &&
+        std::abs(wrapAngle(p.theta - at.theta)) <= 2 * kp.cluster_theta_rad)
+      onset = std::min(onset, m.utime);
+  }
+  recent_inconsistent_.clear();
+  if (onset == std::numeric_limits<int64_t>::max()) return;
+  const int64_t from = onset - static_cast<int64_t>(kp.retest_margin_s * 1e6);
+  for (uint32_t s = 0; s < placed_utime_.size(); ++s) {
+    retest_pending_[s] = 0;  // a re-test of an earlier relocalization is moot now
+    if (placed_utime_[s] >= from) retest_candidates_.push_back(s);
+  }
 }
 
 void ParticleFilter::endLowRun() {
@@ -751,6 +831,10 @@ void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
   slots_.clear();
   ids_.clear();
   records_.clear();
+  placed_utime_.clear();
+  retest_pending_.clear();
+  retest_candidates_.clear();
+  recent_inconsistent_.clear();
   low_run_.clear();
   forgetBeforeKidnap();
   LandmarkMap map;
@@ -763,6 +847,8 @@ void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
     slots_.emplace(l.id, slot);
     ids_.push_back(l.id);
     map.mutableSlot(slot) = l.estimate;
+    placed_utime_.push_back(std::numeric_limits<int64_t>::min());
+    retest_pending_.push_back(0);
   }
   for (Particle& p : particles_) p.map = map;
 }

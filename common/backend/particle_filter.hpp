@@ -131,6 +131,17 @@ struct KidnapParams {
   // landmarks whose measurements declared it count as contradicted. Not
   // after startKidnapped() (there is no such hypothesis). 0: never.
   int cancel_count = 0;
+  // A robot carried to another place makes new landmarks there before it
+  // sees an old one: they are placed from the pose it was thought to be at,
+  // carried by the odometry, and after the relocalization they would give
+  // evidence of another kidnapping back (and pull the map there). At a
+  // relocalization, the landmarks placed since retest_margin_s before the
+  // earliest recent inconsistent measurement that agrees with the detection
+  // (within 2 x cluster_*: where the robot was moved to) are re-tested at
+  // their next consistent measurement: kept where they are, or moved with
+  // the relocalization's shift, whichever the measurement agrees with
+  // (docs/backend.md, "Landmarks placed before the detection"). < 0: off.
+  double retest_margin_s = 5.0;
 };
 
 struct FilterParams {
@@ -202,6 +213,10 @@ struct UpdateReport {
   bool cancelled = false;  // ...by agreeing with the pose before it (KidnapParams::cancel_count)
   bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
   bool deferred = false;   // first seen while kidnapped: not mapped until the relocalization
+  // Placed before a kidnapping was detected and re-tested after the
+  // relocalization (KidnapParams::retest_margin_s): this measurement agreed
+  // with it moved by the relocalization's shift, and it was moved there.
+  bool moved = false;
 };
 
 struct PoseEstimate {
@@ -331,11 +346,21 @@ class ParticleFilter {
   double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
                        const std::vector<double>& log_w,
                        std::vector<Innovation>* innovations = nullptr) const;
-  // The same for another particle set (the hypothesis a kidnapping replaced).
+  // The same for another particle set (the hypothesis a kidnapping
+  // replaced), or with the landmark moved by `shift` (map frame) if given.
   double agreementWith(const std::vector<Particle>& particles, uint32_t slot,
                        const Observation& obs, const Eigen::Matrix3d& r,
-                       const std::vector<double>& log_w,
-                       std::vector<Innovation>* innovations) const;
+                       const std::vector<double>& log_w, std::vector<Innovation>* innovations,
+                       const Pose2* shift = nullptr) const;
+  // A landmark placed before a kidnapping's detection, re-tested after the
+  // relocalization (KidnapParams::retest_margin_s): kept, or moved by
+  // retest_shift_ in every particle (returns true) if this measurement
+  // agrees with that instead; either resolves it if it agrees.
+  bool retest(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
+              const std::vector<double>& log_w);
+  // At a kidnap detection with evidence of the pose `at`: the landmarks to
+  // re-test after the relocalization.
+  void chooseRetestCandidates(const Pose2& at);
   // While kidnapped: does this measurement cancel the kidnapping
   // (KidnapParams::cancel_count)? If so, the particles are the hypothesis
   // it replaced again.
@@ -368,6 +393,18 @@ class ParticleFilter {
   double driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
+
+  // Per slot: the capture time of the measurement that placed it, and
+  // whether it is to be re-tested (retest); the shift of the relocalization
+  // that made it so; while kidnapped, the slots to re-test after it.
+  std::vector<int64_t> placed_utime_;
+  std::vector<char> retest_pending_;
+  Pose2 retest_shift_;
+  std::vector<uint32_t> retest_candidates_;
+  // Recent inconsistent measurements (not only the current run: consistent
+  // measurements of landmarks made after the robot was moved interrupt it),
+  // bounded: where a kidnapping began.
+  std::vector<Implied> recent_inconsistent_;
 
   bool kidnapped_ = false;
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements

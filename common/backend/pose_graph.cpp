@@ -234,6 +234,21 @@ void PoseGraph::addLandmark(int64_t landmark_id, int node) {
     ++nodes_[static_cast<size_t>(node)].landmarks;
 }
 
+bool PoseGraph::removeLandmark(int64_t landmark_id) {
+  const auto it = landmarks_.find(landmark_id);
+  if (it == landmarks_.end()) return false;
+  if (it->second.creation_node >= 0)
+    --nodes_[static_cast<size_t>(it->second.creation_node)].landmarks;
+  else
+    --map_landmarks_;
+  landmarks_.erase(it);
+  measurements_.erase(
+      std::remove_if(measurements_.begin(), measurements_.end(),
+                     [&](const Measurement& m) { return m.landmark_id == landmark_id; }),
+      measurements_.end());
+  return true;
+}
+
 void PoseGraph::addMapLandmark(int64_t landmark_id, const Pose2& pose) {
   if (!pose.isFinite())
     throw std::invalid_argument("pose graph: a map landmark's pose is not finite");

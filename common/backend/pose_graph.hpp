@@ -139,6 +139,10 @@ class PoseGraph {
   // node (where the filter relocalized) gets the weak segment prior.
   void addMapLandmark(int64_t landmark_id, const Pose2& pose);
   bool hasLandmark(int64_t landmark_id) const { return landmarks_.count(landmark_id) > 0; }
+  // The landmark and its measurements leave the graph (its creation node
+  // stays, and goes at a prune if nothing else holds it). Returns whether
+  // it was there.
+  bool removeLandmark(int64_t landmark_id);
   // y: the robot at node `node` in the landmark's frame. Returns false (and
   // adds nothing) for an unknown landmark or beyond max_measurement_distance_m.
   bool addMeasurement(int64_t landmark_id, int node, const Pose2& y);

@@ -111,7 +111,11 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("cancel_count", &K::cancel_count, InRange{0, 1000}, "",
            "while kidnapped, this many measurements that agree with the particles as they were "
            "when it was declared (carried by the odometry) cancel it: look-alikes declared it; "
-           "0: never");
+           "0: never")
+      .add("retest_margin_s", &K::retest_margin_s, InRange{-1, 600}, "s",
+           "after a relocalization, landmarks placed from this long before the first "
+           "measurement of where the robot was moved to are re-tested: kept, or moved with the "
+           "relocalization, as their next measurement agrees; < 0: off");
   return t;
 }
 
@@ -709,6 +713,8 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
   report.add("drift_corrections", static_cast<double>(c.drift_corrections), "count");
   report.add("landmarks_mapped_after_relocalization",
              static_cast<double>(c.landmarks_mapped_after_relocalization), "count");
+  report.add("landmarks_moved_after_relocalization",
+             static_cast<double>(c.landmarks_moved_after_relocalization), "count");
   report.add("resamplings", static_cast<double>(c.resamplings), "count");
   report.add("odometry_ignored", static_cast<double>(c.odometry_ignored), "count");
   report.add("position_sigma", std::sqrt(e.covariance(0, 0) + e.covariance(1, 1)), "m");

@@ -1066,6 +1066,67 @@ TEST(ParticleFilter, AKidnappingThatLookAlikesDeclaredIsCancelledByTheHypothesis
   EXPECT_TRUE(without->kidnapped());
 }
 
+TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
+  // Landmarks 1-3 are mapped from the start pose; the robot is carried 3 m
+  // back, its odometry still. There it makes landmarks 4 and 5 before it
+  // sees an old one: the filter places them from where it thinks it is, so
+  // they sit 3 m from where they are. Then landmarks 1 and 2 show where it
+  // is: a kidnapping, and a relocalization. Measured again, 4 and 5 agree
+  // with the relocalization's shift and are moved by it: no second
+  // kidnapping. Landmark 3, placed before the carry, is kept where it is.
+  // Without the re-test (retest_margin_s < 0), 4 and 5 agree with each
+  // other on the pose before the carry: a kidnapping back there.
+  const auto at = observationAt;
+  auto run = [&](double margin_s, std::vector<UpdateReport>* after) {
+    FilterParams p = homeParams(200);
+    p.kidnap.retest_margin_s = margin_s;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 1.0)).kind, UpdateKind::kInitialized);
+    EXPECT_EQ(pf->update(at(5, {0, 0.5, 0}, 1.2)).kind, UpdateKind::kInitialized);
+    int kidnaps = 0;
+    bool recovered = false;
+    double s = 1.5;
+    for (int k = 0; k < 16 && !recovered; ++k, s += 0.5) {
+      const UpdateReport r = pf->update(k % 2 ? at(2, {-3, 1, 0}, s) : at(1, {-2, 0, 0}, s));
+      kidnaps += r.kidnap_detected;
+      recovered = r.recovered;
+    }
+    EXPECT_EQ(kidnaps, 1);
+    EXPECT_TRUE(recovered);
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+    for (int k = 0; k < 8; ++k, s += 0.5)
+      after->push_back(pf->update(k % 2 ? at(5, {0, 0.5, 0}, s) : at(4, {0.5, 0, 0}, s)));
+    after->push_back(pf->update(at(3, {-3, -1, 0}, s)));
+    return pf;
+  };
+  std::vector<UpdateReport> reports;
+  const auto pf = run(5.0, &reports);
+  const double consistent = homeParams(1).kidnap.recover_agreement;
+  EXPECT_TRUE(reports[0].moved);
+  EXPECT_TRUE(reports[1].moved);
+  for (size_t i = 0; i < reports.size(); ++i) {
+    EXPECT_FALSE(reports[i].kidnap_detected) << "measurement " << i;
+    EXPECT_GE(reports[i].agreement, consistent) << "measurement " << i;
+    if (i >= 2) {
+      EXPECT_FALSE(reports[i].moved) << "measurement " << i;
+    }
+  }
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+  const Particle& best = pf->particles()[pf->bestParticle()];
+  const LandmarkEstimate* lm4 = best.map.find(static_cast<uint32_t>(pf->slotOf(4)));
+  EXPECT_NEAR(lm4->mean.x(), -3.5, 0.1);  // where it is
+  const LandmarkEstimate* lm3 = best.map.find(static_cast<uint32_t>(pf->slotOf(3)));
+  EXPECT_NEAR(lm3->mean.y(), 1.0, 0.1);  // kept
+
+  reports.clear();
+  const auto without = run(-1, &reports);  // the control
+  int kidnaps = 0;
+  for (const UpdateReport& r : reports) kidnaps += r.kidnap_detected;
+  EXPECT_EQ(kidnaps, 1);
+}
+
 TEST(ParticleFilter, AKnownLookAlikesInconsistentMeasurementWeighsNoParticle) {
   // Landmarks 1 and 2 were twice recognised on a look-alike wall (runs of
   // inconsistent measurements that landmark 3 contradicted): they are known

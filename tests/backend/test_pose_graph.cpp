@@ -383,6 +383,31 @@ TEST(PoseGraph, RefusesMeasurementsItCannotUse) {
   EXPECT_THROW(PoseGraph{bad}, std::invalid_argument);
 }
 
+TEST(PoseGraph, ARemovedLandmarkTakesItsMeasurementsWithIt) {
+  // Landmark 2 (placed where the robot was wrongly thought to be) says the
+  // robot at node c stands 0.3 m aside of where the odometry and landmark 1
+  // put it. Removed, it pulls nothing: c is where they say.
+  PoseGraph graph(syntheticGraphParams());
+  const int a = graph.addNode(0, {Pose2{}, 0, 0}, Pose2{});
+  graph.addLandmark(1, a);
+  const int b = graph.addNode(1000, {Pose2{0.5, 0, 0}, 0.5, 0}, Pose2{});
+  graph.addLandmark(2, b);
+  const int c = graph.addNode(2000, {Pose2{1, 0, 0}, 1, 0}, Pose2{});
+  ASSERT_TRUE(graph.addMeasurement(1, c, Pose2{1, 0, 0}));
+  ASSERT_TRUE(graph.addMeasurement(2, c, Pose2{0.5, 0.3, 0}));
+  EXPECT_TRUE(graph.removeLandmark(2));
+  EXPECT_FALSE(graph.removeLandmark(2));
+  EXPECT_FALSE(graph.hasLandmark(2));
+  EXPECT_EQ(graph.numLandmarks(), 1u);
+  EXPECT_EQ(graph.numMeasurements(), 1u);
+  EXPECT_FALSE(graph.addMeasurement(2, c, Pose2{0.5, 0, 0}));
+  ASSERT_TRUE(graph.solve().solved);
+  EXPECT_NEAR(graph.nodePose(c).x, 1.0, 1e-6);
+  EXPECT_NEAR(graph.nodePose(c).y, 0.0, 1e-6);
+  ASSERT_EQ(graph.landmarkPoses().size(), 1u);
+  EXPECT_EQ(graph.landmarkPoses()[0].first, 1);
+}
+
 TEST(ParticleFilter, CorrectMapGivesEveryParticleOneCorrectedMapAndMovesThePoses) {
   FilterParams p;
   p.num_particles = 50;
