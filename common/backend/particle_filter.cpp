@@ -312,15 +312,16 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
   // (1) How well do the particles, as they are, explain the measurement?
   const double agreement = agreementWith(slot, obs, r, log_w, &innovations_);
 
-  // (2) Mode: kidnap detection and recovery, the dynamic ratio. A landmark
-  // still to be re-tested gives no kidnap evidence: it may be either side.
+  // (2) Mode: kidnap detection and recovery, the dynamic ratio. (A landmark
+  // still to be re-tested that agrees with neither place gives kidnap
+  // evidence as it is: held back, a landmark made before a first carry and
+  // next seen after a second one would hide the second; tuning homes 43, 48.)
   rep.agreement = agreement;
   rep.suspect = suspect;
   rep.recovered = rep.cancelled = cancelled;
   const MixtureParams& mix = params_.mixture;
   bool confirmed_by_cluster = false;
-  const bool all_dual = updateMode(slot, obs, agreement, suspect || retest_pending_[slot] != 0,
-                                   &rep, &confirmed_by_cluster);
+  const bool all_dual = updateMode(slot, obs, agreement, suspect, &rep, &confirmed_by_cluster);
   // (With the robust likelihood.) A known look-alike's measurement weighs
   // the particles only if it is consistent (a >= recover_agreement, as its
   // record counts it): otherwise it is most likely the look-alike again, and
