@@ -307,7 +307,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
 
   // (0) Placed before a kidnapping was detected: where does it belong?
   UpdateReport rep;
-  if (!kidnapped_ && retest_pending_[slot]) rep.moved = retest(slot, obs, r, log_w);
+  if (!kidnapped_ && retest_pending_[slot]) rep.moved = retest(slot, obs);
 
   // (1) How well do the particles, as they are, explain the measurement?
   const double agreement = agreementWith(slot, obs, r, log_w, &innovations_);
@@ -466,8 +466,19 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
           std::remove_if(reloc_run_.begin(), reloc_run_.end(),
                          [&](const Implied& e) { return obs.utime - e.utime > window; }),
           reloc_run_.end());
+      // Measurements since the detection: recover_landmarks distinct
+      // landmarks agreeing confirm it. With those that declared it (kept in
+      // the window from the detection), one more: the evidence that declared
+      // it and one new measurement are as strong as that, but a repeated
+      // pattern can give a few landmarks that agree (tuning homes 23, 36).
+      std::vector<Implied> since_detection;
+      for (const Implied& e : reloc_run_)
+        if (e.utime > kidnap_declared_utime_) since_detection.push_back(e);
       *confirmed_by_cluster =
-          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks;
+          (!since_detection.empty() &&
+           agreeingLandmarks(since_detection, since_detection.size() - 1) >=
+               kp.recover_landmarks) ||
+          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks + 1;
     }
     if (agreement >= kp.recover_agreement) {
       ++recover_count_;
@@ -534,7 +545,12 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         }
         rep->kidnap_detected = true;
         chooseRetestCandidates(*evidence);
+        // The measurements that declared it stay in the relocalization's
+        // window: they say where the robot is.
         reloc_run_.clear();
+        kidnap_declared_utime_ = obs.utime;
+        for (const Implied& m : low_run_)
+          if (agreesWith(m, *evidence, 1.0)) reloc_run_.push_back(m);
         recover_count_ = 0;
         recover_landmarks_.clear();
         all_dual = true;
@@ -590,17 +606,14 @@ double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
 double ParticleFilter::agreementWith(const std::vector<Particle>& particles, uint32_t slot,
                                      const Observation& obs, const Eigen::Matrix3d& r,
                                      const std::vector<double>& log_w,
-                                     std::vector<Innovation>* innovations,
-                                     const Pose2* shift) const {
+                                     std::vector<Innovation>* innovations) const {
   // a = sum_i w_i exp(-d_i^2 / 2) / E[exp(-d^2/2)], clipped to 1.
   const size_t m = particles.size();
   std::vector<double> d2(m);
   if (innovations != nullptr) innovations->resize(m);
   forEachIndex(m, [&](size_t i) {
     const LandmarkEstimate* lm = particles[i].map.find(slot);
-    const Innovation in =
-        shift == nullptr ? innovation(*lm, particles[i].pose, obs.relative, r)
-                         : innovation(movedBy(*lm, *shift), particles[i].pose, obs.relative, r);
+    const Innovation in = innovation(*lm, particles[i].pose, obs.relative, r);
     d2[i] = in.mahalanobis_sq;
     if (innovations != nullptr) (*innovations)[i] = in;
   });
@@ -609,20 +622,32 @@ double ParticleFilter::agreementWith(const std::vector<Particle>& particles, uin
   return std::min(1.0, agreement / kConsistentAgreement);
 }
 
-bool ParticleFilter::retest(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
-                            const std::vector<double>& log_w) {
-  const double enough = params_.kidnap.recover_agreement;
-  const double kept = agreementWith(particles_, slot, obs, r, log_w, nullptr);
-  const double moved = agreementWith(particles_, slot, obs, r, log_w, nullptr, &retest_shift_);
-  if (moved >= enough && moved > kept) {
+bool ParticleFilter::retest(uint32_t slot, const Observation& obs) {
+  // Which place puts the robot where the relocalized particles are, within
+  // 2 x cluster_* (as the kidnapping's onset)? Not the measurement's
+  // agreement: that is as tight as the landmark's covariance, and the
+  // relocalization's own error (decimetres, degrees, turned about a
+  // landmark metres away) would leave both places unlikely.
+  const KidnapParams& kp = params_.kidnap;
+  const Pose2 at = estimate().mean;
+  const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
+  const Pose2 kept = toPose(lm->mean).compose(obs.relative);
+  const Pose2 moved = retest_shift_.compose(kept);
+  // Offset from `at` in units of the tolerance; > 1: not there.
+  auto offset = [&](const Pose2& p) {
+    return std::max(std::hypot(p.x - at.x, p.y - at.y) / (2 * kp.cluster_xy_m),
+                    std::abs(wrapAngle(p.theta - at.theta)) / (2 * kp.cluster_theta_rad));
+  };
+  const double kept_offset = offset(kept), moved_offset = offset(moved);
+  if (moved_offset <= 1 && moved_offset < kept_offset) {
     forEachParticle([&](size_t i) {
-      LandmarkEstimate& lm = particles_[i].map.mutableSlot(slot);
-      lm = movedBy(lm, retest_shift_);
+      LandmarkEstimate& e = particles_[i].map.mutableSlot(slot);
+      e = movedBy(e, retest_shift_);
     });
     retest_pending_[slot] = 0;
     return true;
   }
-  if (kept >= enough) retest_pending_[slot] = 0;
+  if (kept_offset <= 1) retest_pending_[slot] = 0;
   return false;
 }
 
@@ -635,12 +660,8 @@ void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
   // The robot was moved before it; landmarks placed from a little before it
   // on may have been placed from the pose it was thought to be at.
   int64_t onset = std::numeric_limits<int64_t>::max();
-  for (const Implied& m : recent_inconsistent_) {
-    const Pose2 p = m.implied.compose(m.odometry.between(odometry_));
-    if (std::hypot(p.x - at.x, p.y - at.y) <= 2 * kp.cluster_xy_m &&
-        std::abs(wrapAngle(p.theta - at.theta)) <= 2 * kp.cluster_theta_rad)
-      onset = std::min(onset, m.utime);
-  }
+  for (const Implied& m : recent_inconsistent_)
+    if (agreesWith(m, at, 2.0)) onset = std::min(onset, m.utime);
   recent_inconsistent_.clear();
   if (onset == std::numeric_limits<int64_t>::max()) return;
   const int64_t from = onset - static_cast<int64_t>(kp.retest_margin_s * 1e6);
@@ -678,6 +699,13 @@ double ParticleFilter::noteUnused(const Observation& obs) {
 ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t slot) const {
   const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
   return {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(obs.relative), odometry_};
+}
+
+bool ParticleFilter::agreesWith(const Implied& m, const Pose2& at, double scale) const {
+  const KidnapParams& kp = params_.kidnap;
+  const Pose2 p = m.implied.compose(m.odometry.between(odometry_));  // carried to now
+  return std::hypot(p.x - at.x, p.y - at.y) <= scale * kp.cluster_xy_m &&
+         std::abs(wrapAngle(p.theta - at.theta)) <= scale * kp.cluster_theta_rad;
 }
 
 int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
@@ -761,7 +789,8 @@ void ParticleFilter::setMotionNoise(const MotionNoise& noise) {
 void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;
-  forgetBeforeKidnap();  // no hypothesis to go back to
+  kidnap_declared_utime_ = std::numeric_limits<int64_t>::min();  // no measurement declared it
+  forgetBeforeKidnap();                                          // no hypothesis to go back to
   low_run_.clear();
   reloc_run_.clear();
   recover_count_ = 0;

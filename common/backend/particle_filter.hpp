@@ -346,18 +346,19 @@ class ParticleFilter {
   double agreementWith(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
                        const std::vector<double>& log_w,
                        std::vector<Innovation>* innovations = nullptr) const;
-  // The same for another particle set (the hypothesis a kidnapping
-  // replaced), or with the landmark moved by `shift` (map frame) if given.
+  // The same for another particle set (the hypothesis a kidnapping replaced).
   double agreementWith(const std::vector<Particle>& particles, uint32_t slot,
                        const Observation& obs, const Eigen::Matrix3d& r,
-                       const std::vector<double>& log_w, std::vector<Innovation>* innovations,
-                       const Pose2* shift = nullptr) const;
+                       const std::vector<double>& log_w,
+                       std::vector<Innovation>* innovations) const;
   // A landmark placed before a kidnapping's detection, re-tested after the
   // relocalization (KidnapParams::retest_margin_s): kept, or moved by
   // retest_shift_ in every particle (returns true) if this measurement
-  // agrees with that instead; either resolves it if it agrees.
-  bool retest(uint32_t slot, const Observation& obs, const Eigen::Matrix3d& r,
-              const std::vector<double>& log_w);
+  // puts the robot at the estimate from there instead; either resolves it.
+  bool retest(uint32_t slot, const Observation& obs);
+  // Whether a measurement's implied pose, carried to now by the odometry, is
+  // within scale x cluster_* of `at`.
+  bool agreesWith(const Implied& m, const Pose2& at, double scale) const;
   // At a kidnap detection with evidence of the pose `at`: the landmarks to
   // re-test after the relocalization.
   void chooseRetestCandidates(const Pose2& at);
@@ -408,8 +409,10 @@ class ParticleFilter {
 
   bool kidnapped_ = false;
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
-  std::vector<Implied>
-      reloc_run_;  // while kidnapped: the measurements of the last recover_window_s
+  // While kidnapped: the measurements of the last recover_window_s, from
+  // those that declared it (at kidnap_declared_utime_) on.
+  std::vector<Implied> reloc_run_;
+  int64_t kidnap_declared_utime_ = 0;
   // Per slot: measurements that agreed (a >= recover_agreement), and
   // inconsistent runs it was in that ended with a consistent measurement.
   struct LandmarkRecord {

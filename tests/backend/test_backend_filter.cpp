@@ -1127,6 +1127,34 @@ TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
   EXPECT_EQ(kidnaps, 1);
 }
 
+TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocalization) {
+  // The robot is carried 3 m back; landmarks 1 and 2 show it there for 2.5 s
+  // and declare a kidnapping. A third landmark that agrees confirms the
+  // relocalization at once: three distinct landmarks, one more than a
+  // relocalization needs, since the two that declared it count. One of the
+  // two again does not: a repeated pattern can give two that agree.
+  const auto at = observationAt;
+  auto declared = [&]() {
+    auto pf = filterWithThreeLandmarks(homeParams(200), {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    int kidnaps = 0;
+    for (int k = 0; k < 8 && !pf->kidnapped(); ++k)
+      kidnaps += pf->update(k % 2 ? at(2, {-3, 1, 0}, 1 + 0.5 * k) : at(1, {-2, 0, 0}, 1 + 0.5 * k))
+                     .kidnap_detected;
+    EXPECT_EQ(kidnaps, 1);
+    return pf;
+  };
+  const auto third = declared();
+  ASSERT_TRUE(third->kidnapped());
+  EXPECT_TRUE(third->update(at(3, {-3, -1, 0}, 5)).recovered);
+  EXPECT_NEAR(third->estimate().mean.x, -3.0, 0.2);
+  EXPECT_NEAR(third->estimate().mean.y, 0.0, 0.2);
+
+  const auto again = declared();
+  ASSERT_TRUE(again->kidnapped());
+  EXPECT_FALSE(again->update(at(1, {-2, 0, 0}, 5)).recovered);
+  EXPECT_TRUE(again->kidnapped());
+}
+
 TEST(ParticleFilter, AKnownLookAlikesInconsistentMeasurementWeighsNoParticle) {
   // Landmarks 1 and 2 were twice recognised on a look-alike wall (runs of
   // inconsistent measurements that landmark 3 contradicted): they are known
