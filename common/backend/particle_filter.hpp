@@ -138,9 +138,10 @@ struct KidnapParams {
   // relocalization, the landmarks placed since retest_margin_s before the
   // earliest recent inconsistent measurement that agrees with the detection
   // (within 2 x cluster_*: where the robot was moved to) are re-tested at
-  // their next consistent measurement: kept where they are, or moved with
-  // the relocalization's shift, whichever the measurement agrees with
-  // (docs/backend.md, "Landmarks placed before the detection"). < 0: off.
+  // their next measurement: kept where they are, or moved with the
+  // relocalization's shift, whichever puts the robot within 2 x cluster_*
+  // of the relocalized estimate (docs/backend.md, "Landmarks placed before
+  // the detection"). < 0: off.
   double retest_margin_s = 5.0;
 };
 
@@ -214,8 +215,9 @@ struct UpdateReport {
   bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
   bool deferred = false;   // first seen while kidnapped: not mapped until the relocalization
   // Placed before a kidnapping was detected and re-tested after the
-  // relocalization (KidnapParams::retest_margin_s): this measurement agreed
-  // with it moved by the relocalization's shift, and it was moved there.
+  // relocalization (KidnapParams::retest_margin_s): this measurement put the
+  // robot at the estimate from its place moved by the relocalization's
+  // shift, and it was moved there.
   bool moved = false;
 };
 
