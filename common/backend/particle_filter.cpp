@@ -628,18 +628,12 @@ bool ParticleFilter::retest(uint32_t slot, const Observation& obs) {
   // agreement: that is as tight as the landmark's covariance, and the
   // relocalization's own error (decimetres, degrees, turned about a
   // landmark metres away) would leave both places unlikely.
-  const KidnapParams& kp = params_.kidnap;
   const Pose2 at = estimate().mean;
   const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
   const Pose2 kept = toPose(lm->mean).compose(obs.relative);
   const Pose2 moved = retest_shift_.compose(kept);
-  // Offset from `at` in units of the tolerance; > 1: not there.
-  auto offset = [&](const Pose2& p) {
-    return std::max(std::hypot(p.x - at.x, p.y - at.y) / (2 * kp.cluster_xy_m),
-                    std::abs(wrapAngle(p.theta - at.theta)) / (2 * kp.cluster_theta_rad));
-  };
-  const double kept_offset = offset(kept), moved_offset = offset(moved);
-  if (moved_offset <= 1 && moved_offset < kept_offset) {
+  const double kept_offset = clusterOffset(kept, at), moved_offset = clusterOffset(moved, at);
+  if (moved_offset <= 2 && moved_offset < kept_offset) {
     forEachParticle([&](size_t i) {
       LandmarkEstimate& e = particles_[i].map.mutableSlot(slot);
       e = movedBy(e, retest_shift_);
@@ -647,7 +641,7 @@ bool ParticleFilter::retest(uint32_t slot, const Observation& obs) {
     retest_pending_[slot] = 0;
     return true;
   }
-  if (kept_offset <= 1) retest_pending_[slot] = 0;
+  if (kept_offset <= 2) retest_pending_[slot] = 0;
   return false;
 }
 
@@ -701,26 +695,28 @@ ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t
   return {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(obs.relative), odometry_};
 }
 
-bool ParticleFilter::agreesWith(const Implied& m, const Pose2& at, double scale) const {
+Pose2 ParticleFilter::carriedToNow(const Implied& m) const {
+  return m.implied.compose(m.odometry.between(odometry_));
+}
+
+double ParticleFilter::clusterOffset(const Pose2& p, const Pose2& at) const {
   const KidnapParams& kp = params_.kidnap;
-  const Pose2 p = m.implied.compose(m.odometry.between(odometry_));  // carried to now
-  return std::hypot(p.x - at.x, p.y - at.y) <= scale * kp.cluster_xy_m &&
-         std::abs(wrapAngle(p.theta - at.theta)) <= scale * kp.cluster_theta_rad;
+  return std::max(std::hypot(p.x - at.x, p.y - at.y) / kp.cluster_xy_m,
+                  std::abs(wrapAngle(p.theta - at.theta)) / kp.cluster_theta_rad);
+}
+
+bool ParticleFilter::agreesWith(const Implied& m, const Pose2& at, double scale) const {
+  return clusterOffset(carriedToNow(m), at) <= scale;
 }
 
 int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
                                       Pose2* mean_pose) const {
-  const KidnapParams& kp = params_.kidnap;
-  // The implied poses carried to the present by the odometry since.
-  auto now = [&](const Implied& m) { return m.implied.compose(m.odometry.between(odometry_)); };
-  const Pose2 ref = now(run[i]);
+  const Pose2 ref = carriedToNow(run[i]);
   std::vector<int64_t> agreeing;
   double sx = 0, sy = 0, sc = 0, ss = 0, members = 0;  // the cluster's mean pose
   for (const Implied& m : run) {
-    const Pose2 p = now(m);
-    if (std::hypot(p.x - ref.x, p.y - ref.y) > kp.cluster_xy_m ||
-        std::abs(wrapAngle(p.theta - ref.theta)) > kp.cluster_theta_rad)
-      continue;
+    const Pose2 p = carriedToNow(m);
+    if (clusterOffset(p, ref) > 1) continue;
     sx += p.x;
     sy += p.y;
     sc += std::cos(p.theta);

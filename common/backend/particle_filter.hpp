@@ -358,8 +358,13 @@ class ParticleFilter {
   // retest_shift_ in every particle (returns true) if this measurement
   // puts the robot at the estimate from there instead; either resolves it.
   bool retest(uint32_t slot, const Observation& obs);
-  // Whether a measurement's implied pose, carried to now by the odometry, is
-  // within scale x cluster_* of `at`.
+  // A measurement's implied pose carried to the present by the odometry since.
+  Pose2 carriedToNow(const Implied& m) const;
+  // How far `p` is from `at` in units of KidnapParams::cluster_*: the larger
+  // of the distance over cluster_xy_m and the angle over cluster_theta_rad.
+  double clusterOffset(const Pose2& p, const Pose2& at) const;
+  // Whether a measurement's implied pose, carried to now, is within scale x
+  // cluster_* of `at`.
   bool agreesWith(const Implied& m, const Pose2& at, double scale) const;
   // At a kidnap detection with evidence of the pose `at`: the landmarks to
   // re-test after the relocalization.

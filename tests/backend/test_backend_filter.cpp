@@ -808,6 +808,12 @@ Observation observationAt(int64_t id, const Pose2& y, double seconds) {
   return o;
 }
 
+// Landmark 1 (even k) or 2 (odd k) of filterWithThreeLandmarks measured by a
+// robot carried to (-3, 0, 0), at `seconds`.
+Observation seenFromThreeMetresBack(int k, double seconds) {
+  return k % 2 ? observationAt(2, {-3, 1, 0}, seconds) : observationAt(1, {-2, 0, 0}, seconds);
+}
+
 // A filter that has mapped landmarks 1 and 2 at (-1, 0, 0) and (0, -1, 0),
 // and landmark 3 where `y3` puts it, all from the start pose at t = 0.
 std::unique_ptr<ParticleFilter> filterWithThreeLandmarks(const FilterParams& p, const Pose2& y3) {
@@ -1087,7 +1093,7 @@ TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
     bool recovered = false;
     double s = 1.5;
     for (int k = 0; k < 16 && !recovered; ++k, s += 0.5) {
-      const UpdateReport r = pf->update(k % 2 ? at(2, {-3, 1, 0}, s) : at(1, {-2, 0, 0}, s));
+      const UpdateReport r = pf->update(seenFromThreeMetresBack(k, s));
       kidnaps += r.kidnap_detected;
       recovered = r.recovered;
     }
@@ -1138,8 +1144,7 @@ TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocaliza
     auto pf = filterWithThreeLandmarks(homeParams(200), {0, -1, 0});  // landmark 3 at (0, 1, 0)
     int kidnaps = 0;
     for (int k = 0; k < 8 && !pf->kidnapped(); ++k)
-      kidnaps += pf->update(k % 2 ? at(2, {-3, 1, 0}, 1 + 0.5 * k) : at(1, {-2, 0, 0}, 1 + 0.5 * k))
-                     .kidnap_detected;
+      kidnaps += pf->update(seenFromThreeMetresBack(k, 1 + 0.5 * k)).kidnap_detected;
     EXPECT_EQ(kidnaps, 1);
     return pf;
   };
