@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include "odometry/motion_model.hpp"
@@ -20,12 +21,13 @@ struct Trace {
   Pose2 pose;
   Eigen::Matrix3d covariance;
 
-  void prepend(const Link& link) {
-    PoseWithCovariance traced(link.action, link.covariance);
+  void prepend(const Pose2& step, const Eigen::Matrix3d& step_covariance) {
+    PoseWithCovariance traced(step, step_covariance);
     traced.apply(pose, covariance);
     pose = traced.pose();
     covariance = traced.covariance();
   }
+  void prepend(const Link& link) { prepend(link.action, link.covariance); }
 };
 
 // Covariance of the inverse of a pose with covariance s.
@@ -38,7 +40,48 @@ Eigen::Matrix3d inverseCovariance(const Pose2& p, const Eigen::Matrix3d& s) {
   return j * s * j.transpose();
 }
 
+// The robot's trace in the frame of a visit's state, from its trace in
+// the frame the robot had at the visit; and back.
+Trace inStateFrame(const PathNode& visit, Trace t) {
+  if (!visit.is_new) t.prepend(visit.offset, visit.offset_covariance);
+  return t;
+}
+Trace inVisitFrame(const PathNode& visit, Trace t) {
+  if (!visit.is_new) {
+    t.prepend(visit.offset.inverse(), inverseCovariance(visit.offset, visit.offset_covariance));
+  }
+  return t;
+}
+
 }  // namespace
+
+std::vector<int> turnedCameras(const std::vector<CameraView>& cameras) {
+  constexpr double kTolerance = 5.0 * M_PI / 180.0;
+  const auto heading = [](const Eigen::Vector3d& a) { return std::atan2(a.y(), a.x()); };
+  const auto elevation = [](const Eigen::Vector3d& a) {
+    return std::atan2(a.z(), std::hypot(a.x(), a.y()));
+  };
+  std::vector<int> turned(cameras.size(), -1);
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    for (size_t j = 0; j < cameras.size(); ++j) {
+      const CameraView& a = cameras[i];
+      const CameraView& b = cameras[j];
+      if (i == j || a.axis.norm() <= 0 || b.axis.norm() <= 0 || a.horizontal_fov_rad <= 0) {
+        continue;
+      }
+      const bool opposite =
+          std::abs(wrapAngle(heading(a.axis) + M_PI - heading(b.axis))) < kTolerance;
+      const bool level = std::abs(elevation(a.axis) - elevation(b.axis)) < kTolerance;
+      const bool as_wide =
+          std::abs(a.horizontal_fov_rad - b.horizontal_fov_rad) < 0.05 * a.horizontal_fov_rad;
+      if (opposite && level && as_wide) {
+        turned[i] = static_cast<int>(j);
+        break;
+      }
+    }
+  }
+  return turned;
+}
 
 Eigen::Matrix3d ActionErrorModel::covariance(const Pose2& action) const {
   const double d = std::hypot(action.x, action.y);
@@ -86,6 +129,36 @@ double AppearanceSlam::distance(const std::vector<Histogram>& a, const std::vect
   return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
 }
 
+double AppearanceSlam::turnedDistance(const std::vector<Histogram>& z,
+                                      const std::vector<Histogram>& state) const {
+  double sum = 0;
+  int n = 0;
+  for (size_t c = 0; c < z.size() && c < turned_camera_.size(); ++c) {
+    const int t = turned_camera_[c];
+    if (t < 0 || static_cast<size_t>(t) >= state.size() || z[c].empty() ||
+        state[static_cast<size_t>(t)].empty()) {
+      continue;
+    }
+    sum += chiSquare(z[c], state[static_cast<size_t>(t)]);
+    ++n;
+  }
+  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
+void AppearanceSlam::setTurnedCameras(const std::vector<int>& turned) {
+  if (!turned.empty() && static_cast<int>(turned.size()) != num_cameras_) {
+    throw std::invalid_argument("setTurnedCameras: " + std::to_string(turned.size()) +
+                                " entries for " + std::to_string(num_cameras_) + " cameras");
+  }
+  for (const int t : turned) {
+    if (t < -1 || t >= num_cameras_) {
+      throw std::invalid_argument("setTurnedCameras: no camera " + std::to_string(t));
+    }
+  }
+  turned_camera_ = turned;
+  can_turn_ = std::any_of(turned.begin(), turned.end(), [](int t) { return t >= 0; });
+}
+
 double AppearanceSlam::logNew() const {
   return -params_.beta * std::log(std::max(new_state_chi2_, params_.min_chi2));
 }
@@ -128,16 +201,19 @@ int64_t AppearanceSlam::addState(const Snapshot& z) {
   s.histograms = z.histograms;
   states_.push_back(std::move(s));
   chi2_cache_.assign(states_.size(), -1.0);
+  chi2_turned_cache_.assign(states_.size(), -1.0);
   seen_.resize(states_.size(), 0);
   trace_pose_.resize(states_.size());
   trace_cov_.resize(states_.size());
   return states_.back().id;
 }
 
-double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histogram>& z) {
-  double& chi2 = chi2_cache_[static_cast<size_t>(state_id)];
-  if (chi2 < 0) {  // not scored by scoreNewState (it scores every stored state)
-    chi2 = distance(z, states_[static_cast<size_t>(state_id)].histograms);
+double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histogram>& z,
+                                      bool turned) {
+  const size_t s = static_cast<size_t>(state_id);
+  double& chi2 = turned ? chi2_turned_cache_[s] : chi2_cache_[s];
+  if (chi2 < 0) {  // not scored by scoreNewState (it scores every stored state as it was seen)
+    chi2 = turned ? turnedDistance(z, states_[s].histograms) : distance(z, states_[s].histograms);
     if (!std::isfinite(chi2)) chi2 = new_state_chi2_;
   }
   return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
@@ -185,6 +261,7 @@ void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>
   }
   loaded_path_ = std::move(node);
   chi2_cache_.assign(states_.size(), -1.0);
+  chi2_turned_cache_.assign(states_.size(), -1.0);
   seen_.assign(states_.size(), 0);
   trace_pose_.resize(states_.size());
   trace_cov_.resize(states_.size());
@@ -208,12 +285,21 @@ StepResult AppearanceSlam::initialize(const Snapshot& z) {
     for (const PathNode* n = loaded_path_.get(); n; n = n->parent.get()) {
       if (seen_[static_cast<size_t>(n->state_id)] != generation_) {
         seen_[static_cast<size_t>(n->state_id)] = generation_;
-        Link link;
-        link.action = t.pose.inverse();
-        link.covariance = inverseCovariance(t.pose, t.covariance);
-        link.model = action_model_;
-        children.push_back(
-            {loaded_path_, n->state_id, false, link, observationLog(n->state_id, z.histograms)});
+        // As the state was seen, and turned around: the link goes to where
+        // the robot stands in the state.
+        for (const bool turned : {false, true}) {
+          if (turned && !can_turn_) break;
+          const Pose2 offset{0, 0, turned ? M_PI : 0.0};
+          PoseWithCovariance to_visit(t.pose.inverse(), inverseCovariance(t.pose, t.covariance));
+          to_visit.apply(offset, Eigen::Matrix3d::Zero());
+          Link link;
+          link.action = to_visit.pose();
+          link.covariance = to_visit.covariance();
+          link.model = action_model_;
+          children.push_back({loaded_path_, n->state_id, false, link,
+                              observationLog(n->state_id, z.histograms, turned), offset,
+                              placeCovariance()});
+        }
       }
       if (!n->parent || !n->link.known) break;
       t.prepend(n->link);
@@ -254,22 +340,24 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
   // Each state's last visit.
   ++generation_;
   candidates_.clear();
-  const auto offer = [&](int64_t state, const Pose2& pose, const Eigen::Matrix3d& cov) {
-    const size_t s = static_cast<size_t>(state);
+  // The robot's trace in the frame of a visit's state.
+  const auto offer = [&](const PathNode& visit, const Trace& in_visit_frame) {
+    const Trace in_state = inStateFrame(visit, in_visit_frame);
+    const size_t s = static_cast<size_t>(visit.state_id);
     if (seen_[s] != generation_) {
       seen_[s] = generation_;
-      trace_pose_[s] = pose;
-      trace_cov_[s] = cov;
-      candidates_.push_back(state);
-    } else if (cov.trace() < trace_cov_[s].trace()) {
-      trace_pose_[s] = pose;
-      trace_cov_[s] = cov;
+      trace_pose_[s] = in_state.pose;
+      trace_cov_[s] = in_state.covariance;
+      candidates_.push_back(visit.state_id);
+    } else if (in_state.covariance.trace() < trace_cov_[s].trace()) {
+      trace_pose_[s] = in_state.pose;
+      trace_cov_[s] = in_state.covariance;
     }
   };
   size_t revisit = chain_.size();  // the most recent revisit on the traced path
   for (size_t i = 0; i < traced; ++i) {
     const size_t s = static_cast<size_t>(chain_[i]->state_id);
-    if (seen_[s] != generation_) offer(chain_[i]->state_id, chain_pose_[i], chain_cov_[i]);
+    if (seen_[s] != generation_) offer(*chain_[i], Trace{chain_pose_[i], chain_cov_[i]});
     if (revisit == chain_.size() && !chain_[i]->is_new) revisit = i;
   }
   // Through the revisit: from the previous visit of the same state, both ways.
@@ -279,15 +367,18 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
     while (q < chain_.size() && chain_[q]->state_id != p) ++q;
     if (q < chain_.size()) {
       const size_t horizon = static_cast<size_t>(params_.revisit_horizon);
+      // The robot in the frame it had at the previous visit q: through P.
+      const Trace at_q = inVisitFrame(
+          *chain_[q], inStateFrame(*chain_[revisit], {chain_pose_[revisit], chain_cov_[revisit]}));
       // Backward in time from q: the usual trace, started at P.
-      Trace back{chain_pose_[revisit], chain_cov_[revisit]};
+      Trace back = at_q;
       for (size_t j = q; j + 1 < chain_.size() && j < q + horizon; ++j) {
         if (!chain_[j]->link.known) break;
         back.prepend(chain_[j]->link);
-        offer(chain_[j + 1]->state_id, back.pose, back.covariance);
+        offer(*chain_[j + 1], back);
       }
       // Forward in time from q: links used in reverse.
-      Trace fwd{chain_pose_[revisit], chain_cov_[revisit]};
+      Trace fwd = at_q;
       for (size_t j = q; j > revisit + 1 && j + horizon > q; --j) {
         const Link& next = chain_[j - 1]->link;  // from chain_[j]'s state to chain_[j-1]'s
         if (!next.known) break;
@@ -295,25 +386,43 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
         reverse.action = next.action.inverse();
         reverse.covariance = inverseCovariance(next.action, next.covariance);
         fwd.prepend(reverse);
-        offer(chain_[j - 1]->state_id, fwd.pose, fwd.covariance);
+        offer(*chain_[j - 1], fwd);
       }
     }
   }
 
-  Eigen::Matrix3d place = Eigen::Matrix3d::Zero();
-  place(0, 0) = place(1, 1) = params_.place_sigma_m * params_.place_sigma_m;
-  place(2, 2) = params_.place_sigma_rad * params_.place_sigma_rad;
+  const Eigen::Matrix3d place = placeCovariance();
   for (const int64_t state : candidates_) {
     const size_t s = static_cast<size_t>(state);
     const Pose2& r = trace_pose_[s];
-    const Eigen::Vector3d v(r.x, r.y, wrapAngle(r.theta));
-    const double m2 = v.dot((trace_cov_[s] + place).inverse() * v);
-    if (m2 > params_.gate) continue;
-    ++*candidates;
-    if (reachable) reachable->push_back(state);
-    children->push_back({h.node, state, false, action,
-                         log_belief - 0.5 * m2 + observationLog(state, z.histograms)});
+    const Eigen::Matrix3d innovation_inv = (trace_cov_[s] + place).inverse();
+    const Eigen::Matrix3d gain_complement = place * innovation_inv;  // I - K
+    // The state as it was seen, and turned around (its heading + pi).
+    for (const bool turned : {false, true}) {
+      if (turned && !can_turn_) break;
+      const double facing = turned ? M_PI : 0.0;
+      const Eigen::Vector3d v(r.x, r.y, wrapAngle(r.theta - facing));
+      const double m2 = v.dot(innovation_inv * v);
+      if (m2 > params_.gate) continue;
+      ++*candidates;
+      if (reachable) reachable->push_back(state);
+      // Where the robot is in the state: the trace drawn toward the state's pose.
+      const Eigen::Vector3d offset = gain_complement * v;
+      Eigen::Matrix3d offset_cov = gain_complement * trace_cov_[s];
+      offset_cov = 0.5 * (offset_cov + offset_cov.transpose());
+      children->push_back({h.node, state, false, action,
+                           log_belief - 0.5 * m2 + observationLog(state, z.histograms, turned),
+                           Pose2{offset.x(), offset.y(), wrapAngle(offset.z() + facing)},
+                           offset_cov});
+    }
   }
+}
+
+Eigen::Matrix3d AppearanceSlam::placeCovariance() const {
+  Eigen::Matrix3d place = Eigen::Matrix3d::Zero();
+  place(0, 0) = place(1, 1) = params_.place_sigma_m * params_.place_sigma_m;
+  place(2, 2) = params_.place_sigma_rad * params_.place_sigma_rad;
+  return place;
 }
 
 void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
@@ -326,8 +435,14 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   // is).
   ++generation_;
   for (const int64_t s : reachable) seen_[static_cast<size_t>(s)] = generation_;
-  std::vector<std::pair<double, int64_t>> matches;  // (observation log-likelihood, state)
-  const double log_new = logNew();
+  struct Match {
+    double log_likelihood;
+    int64_t state;
+    bool turned;
+  };
+  std::vector<Match> matches;
+  // log P(z | x_k) a seed needs: chi2 at most relocalization_match_ratio times the new state's.
+  const double log_needed = logNew() - params_.beta * std::log(params_.relocalization_match_ratio);
   int visits = 0;
   for (const PathNode* n = h.node.get(); n; n = n->parent.get()) {
     const size_t s = static_cast<size_t>(n->state_id);
@@ -335,15 +450,25 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
     if (seen_[s] == generation_) continue;
     seen_[s] = generation_;
     if (recent) continue;
-    const double obs = observationLog(n->state_id, z.histograms);
-    // Only a state that looks more like the snapshot than a new place would.
-    if (obs > log_new) matches.emplace_back(obs, n->state_id);
+    // As it was seen or turned around, whichever looks more like the snapshot.
+    double obs = observationLog(n->state_id, z.histograms);
+    bool turned = false;
+    if (can_turn_) {
+      const double obs_turned = observationLog(n->state_id, z.histograms, true);
+      if (obs_turned > obs) {
+        obs = obs_turned;
+        turned = true;
+      }
+    }
+    // Only a state that looks clearly more like the snapshot than a new place would.
+    if (obs > log_needed) matches.push_back({obs, n->state_id, turned});
   }
   if (matches.empty()) return;
   const size_t k = std::min(matches.size(), static_cast<size_t>(params_.relocalization_candidates));
   std::partial_sort(matches.begin(), matches.begin() + static_cast<std::ptrdiff_t>(k),
-                    matches.end(), [](const auto& a, const auto& b) {
-                      return a.first > b.first || (a.first == b.first && a.second < b.second);
+                    matches.end(), [](const Match& a, const Match& b) {
+                      return a.log_likelihood > b.log_likelihood ||
+                             (a.log_likelihood == b.log_likelihood && a.state < b.state);
                     });
   // The seed's prior is taken from the whole tree (its belief sums to 1),
   // not from h's share of it: the belief is spread over hypotheses that
@@ -352,8 +477,12 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   const double log_prior = std::log(params_.relocalization_prior);
   Link put_down;
   put_down.known = false;  // nothing traces across: the robot was carried or restarted
+  // Put down somewhere within the state's extent.
+  const Eigen::Matrix3d place = placeCovariance();
   for (size_t i = 0; i < k; ++i) {
-    children->push_back({h.node, matches[i].second, false, put_down, log_prior + matches[i].first});
+    const Match& m = matches[i];
+    children->push_back({h.node, m.state, false, put_down, log_prior + m.log_likelihood,
+                         Pose2{0, 0, m.turned ? M_PI : 0.0}, place});
   }
 }
 
@@ -418,6 +547,18 @@ StepResult AppearanceSlam::select(std::vector<Child> children, int64_t new_state
       keep = bound;
     }
     order.resize(keep);
+    // Most believed first by where the robot is now: the hypotheses that
+    // differ only in earlier choices agree on it, so a place's belief is the
+    // sum of theirs; within a place, by belief. (By single belief, a seed
+    // could lead while the new place's belief is split among the paths
+    // that lead to it.)
+    std::map<int64_t, double> at_state;
+    for (const auto& [belief, i] : order) at_state[children[i].state_id] += belief;
+    std::stable_sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
+      const double pa = at_state[children[a.second].state_id];
+      const double pb = at_state[children[b.second].state_id];
+      return pa > pb || (pa == pb && a.first > b.first);
+    });
   } else {
     // Nothing finite (non-finite input): restart from the snapshot as a new
     // state, not linked to the old map.
@@ -440,6 +581,8 @@ StepResult AppearanceSlam::select(std::vector<Child> children, int64_t new_state
     n->step = step_;
     n->is_new = c.is_new;
     n->link = c.link;
+    n->offset = c.offset;
+    n->offset_covariance = c.offset_covariance;
     n->path_length = c.parent ? c.parent->path_length + 1 : 1;
     n->num_states = (c.parent ? c.parent->num_states : 0) + (c.is_new ? 1 : 0);
     n->parent = c.parent;
@@ -467,8 +610,21 @@ SavedMap AppearanceSlam::bestMap(const std::vector<std::string>& cameras) const 
   for (const PathNode* n = best().node.get(); n; n = n->parent.get()) chain.push_back(n);
   std::reverse(chain.begin(), chain.end());
   std::vector<bool> added(states_.size(), false);
+  const PathNode* previous = nullptr;
   for (const PathNode* n : chain) {
-    m.path.push_back({n->state_id, n->link});
+    // A saved visit is at its state: its link goes from state to state, the
+    // robot's motion with both visits' offsets folded in,
+    // offset_previous (+) action (+) offset^-1.
+    Link link = n->link;
+    if (previous && link.known && !(previous->is_new && n->is_new)) {
+      PoseWithCovariance s(previous->offset, previous->offset_covariance);
+      s.apply(link.action, link.covariance);
+      s.apply(n->offset.inverse(), inverseCovariance(n->offset, n->offset_covariance));
+      link.action = s.pose();
+      link.covariance = s.covariance();
+    }
+    previous = n;
+    m.path.push_back({n->state_id, link});
     if (!added[static_cast<size_t>(n->state_id)]) {
       added[static_cast<size_t>(n->state_id)] = true;
       m.states.push_back(states_[static_cast<size_t>(n->state_id)]);

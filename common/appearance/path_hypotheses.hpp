@@ -54,8 +54,8 @@
 // step in which the most believed hypothesis p holds the robot to be in a
 // new state (no mapped place explains its snapshot), p also gets a child
 // "put down in state x_k" for the relocalization_candidates states of its
-// map that look most like the snapshot, and more like it than a new place
-// would, but for those p's trace reaches or visited in its last
+// map that look most like the snapshot, and clearly more like it than a new
+// place would (relocalization_match_ratio), but for those p's trace reaches or visited in its last
 // relocalization_recent_visits steps (there the trace decides), with
 //   theta(child) = alpha P(z | x_k) relocalization_prior,
 // the prior taken from the whole tree (whose belief sums to 1) rather than
@@ -66,6 +66,21 @@
 // the others only while the following snapshots keep matching the states
 // around x_k; a wrong seed goes on as new states, at its small weight, and
 // is pruned by min_belief and max_hypotheses.
+//
+// Where in a state (an addition). A revisit does not put the robot on the
+// state's snapshot pose: views within a state's extent (place_sigma) look
+// alike, and a robot driving a metre beside its earlier path is revisiting
+// it. Each visit keeps the robot's pose in its state's frame with a
+// covariance: for a revisit, the Kalman update of the traced pose
+// N(r, S_trace) by "the robot is at the state" N(0, S_place),
+//   offset = S_place (S_trace + S_place)^-1 r,  covariance = S_place (S_trace + S_place)^-1
+//   S_trace;
+// for a relocalization seed (nothing traced) N(0, S_place). Tracing from a
+// revisit starts from that offset, so a robot that keeps to a parallel
+// track is predicted there at the next state instead of being charged its
+// offset again at every step (and a seed does not lose to the new-state
+// hypothesis for being half a metre beside the states it matches). The
+// saved path folds the offsets into its links (state to state).
 //
 // Each hypothesis implies its own map: the states it created (new-state
 // steps) and the links along its path. The map of the most believed
@@ -129,8 +144,16 @@ struct PathNode {
   int64_t hypothesis_id = 0;
   int64_t state_id = 0;
   int64_t step = 0;
-  bool is_new = true;       // this visit created the state
-  Link link;                // from the parent's state (unused at the root)
+  bool is_new = true;  // this visit created the state
+  Link link;           // from the parent's visit (unused at the root)
+  // Where the robot stood at this visit in the frame of its state, and how
+  // well that is known: identity for the visit that created the state; for
+  // a revisit, the traced pose drawn toward the state by its extent (see
+  // "Where in a state" above). The frame that `link` and the children's
+  // links start from is the robot's at the visit: the state's composed
+  // with this offset.
+  Pose2 offset;
+  Eigen::Matrix3d offset_covariance = Eigen::Matrix3d::Zero();
   int32_t path_length = 1;  // visits from the root
   int32_t num_states = 1;   // states this path created (its map's size)
 
@@ -167,6 +190,11 @@ struct SlamParams {
   // No seed in a state the trace reaches or among the path's last this many
   // visits: there the trace decides.
   int relocalization_recent_visits = 4;
+  // A state is seeded only if its chi2 to the snapshot is at most this
+  // fraction of the new-state score's (P(z | x_k) >= P(z | new) ratio^-beta):
+  // a seed that barely beats "somewhere new" is a look-alike more often
+  // than the place (docs/appearance.md).
+  double relocalization_match_ratio = 0.5;
 };
 
 // A saved map: the states of the most believed hypothesis and its path in
@@ -195,7 +223,7 @@ struct HypothesisInfo {
 struct StepResult {
   int64_t step = 0;
   int64_t new_state_id = -1;               // the state the snapshot would be if new
-  std::vector<HypothesisInfo> hypotheses;  // most believed first
+  std::vector<HypothesisInfo> hypotheses;  // most believed place first (see select), then by belief
   int children = 0;                        // before pruning
   int pruned_threshold = 0;                // below min_belief
   int pruned_bound = 0;                    // beyond max_hypotheses
@@ -204,6 +232,20 @@ struct StepResult {
   bool lost = false;                       // no finite belief: restarted from a single new state
   const HypothesisInfo& best() const { return hypotheses.front(); }
 };
+
+// What decides whether two cameras' histograms can be compared: where the
+// camera looks (its optical axis in the robot frame: x forward, y left,
+// z up) and how wide it sees.
+struct CameraView {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
+  double horizontal_fov_rad = 0;
+};
+
+// For AppearanceSlam::setTurnedCameras: turned[i] is the camera whose axis is
+// camera i's turned by 180 degrees about the vertical (headings within
+// 5 degrees of opposite, elevations within 5 degrees, fields of view within
+// 5 %), -1 if none. A forward and a backward camera give {1, 0}.
+std::vector<int> turnedCameras(const std::vector<CameraView>& cameras);
 
 class AppearanceSlam {
  public:
@@ -231,6 +273,13 @@ class AppearanceSlam {
   // and path.
   SavedMap bestMap(const std::vector<std::string>& cameras) const;
 
+  // Cameras that face each other's way: turned[i] is the camera that faces
+  // where camera i faces once the robot has turned around (-1: none; e.g.
+  // {1, 0} for a forward and a backward camera). With one, a state can be
+  // revisited facing the other way (see "Turned around" above); empty (the
+  // default) or all -1: only as it was seen.
+  void setTurnedCameras(const std::vector<int>& turned);
+
   const SlamParams& params() const { return params_; }
   const ActionErrorModel& actionModel() const { return action_model_; }
   void setActionModel(const ActionErrorModel& model) { action_model_ = model; }
@@ -246,11 +295,19 @@ class AppearanceSlam {
     bool is_new;
     Link link;
     double log_weight;
+    Pose2 offset = Pose2{};
+    Eigen::Matrix3d offset_covariance = Eigen::Matrix3d::Zero();
   };
   int64_t addState(const Snapshot& z);
   void scoreNewState(const Snapshot& z, int64_t new_state);
   double logNew() const;
-  double observationLog(int64_t state_id, const std::vector<Histogram>& z);
+  // The extent of a state (place_sigma): how far from its snapshot's pose
+  // the robot still is "there".
+  Eigen::Matrix3d placeCovariance() const;
+  // log P(z | x): the robot in the state as its snapshot was taken, or
+  // turned around (each camera compared with the one that then faces its way).
+  double observationLog(int64_t state_id, const std::vector<Histogram>& z, bool turned = false);
+  double turnedDistance(const std::vector<Histogram>& z, const std::vector<Histogram>& state) const;
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
               std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);
   void seedRelocalizations(const Hypothesis& h, const Snapshot& z,
@@ -269,6 +326,9 @@ class AppearanceSlam {
   double new_state_chi2_ = 1;  // the distance at which a new state scores, this step
   // Per step: chi-square of the new snapshot against each state (-1: not computed).
   std::vector<double> chi2_cache_;
+  std::vector<double> chi2_turned_cache_;  // the same, the robot turned around
+  std::vector<int> turned_camera_;         // see setTurnedCameras
+  bool can_turn_ = false;
   // Per hypothesis walk: the generation in which a state was last seen, and
   // the best trace of the robot in its frame.
   std::vector<uint32_t> seen_;

@@ -11,8 +11,10 @@
 #include <vslam/appearance_event_t.hpp>
 #include <vslam/appearance_hypotheses_t.hpp>
 #include <vslam/appearance_map_t.hpp>
+#include <vslam/camera_calibration_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
 
+#include "appearance/path_hypotheses.hpp"
 #include "eval/command_line.hpp"
 #include "eval/errors.hpp"
 #include "eval/json_report.hpp"
@@ -145,7 +147,39 @@ struct AppearanceLog {
   std::vector<vslam::appearance_hypotheses_t> steps;
   std::vector<vslam::appearance_event_t> events;
   std::map<int64_t, int64_t> state_utime;  // state id -> time its snapshot was taken
+  std::vector<std::string> cameras;        // the appearance process's, from its map messages
+  std::map<std::string, vslam::camera_calibration_t> calibrations;  // by camera name
+  bool either_way = false;  // AppearanceReport::states_either_way
 };
+
+// Whether two of the appearance process's cameras face opposite ways, as
+// the process itself decides it (appearance::turnedCameras); their names.
+std::optional<std::string> oppositeCameras(const AppearanceLog& in) {
+  std::vector<appearance::CameraView> views;
+  for (const auto& name : in.cameras) {
+    const auto it = in.calibrations.find(name);
+    if (it == in.calibrations.end()) return std::nullopt;
+    const auto& c = it->second;
+    const Eigen::Quaterniond q(c.robot_q_camera[0], c.robot_q_camera[1], c.robot_q_camera[2],
+                               c.robot_q_camera[3]);
+    views.push_back({q.normalized().toRotationMatrix().col(2),
+                     c.fx > 0 ? 2.0 * std::atan(0.5 * c.width / c.fx) : 0.0});
+  }
+  const auto turned = appearance::turnedCameras(views);
+  for (size_t i = 0; i < turned.size(); ++i) {
+    if (turned[i] >= 0) return in.cameras[i] + "/" + in.cameras[static_cast<size_t>(turned[i])];
+  }
+  return std::nullopt;
+}
+
+// A calibration message, told by its type's fingerprint (any channel).
+bool isCalibration(const LogEventRef& e) {
+  if (e.event.datalen < 8) return false;
+  const auto* d = static_cast<const uint8_t*>(e.event.data);
+  uint64_t hash = 0;
+  for (int i = 0; i < 8; ++i) hash = (hash << 8) | d[i];
+  return static_cast<int64_t>(hash) == vslam::camera_calibration_t::getHash();
+}
 
 // Reads the log's channels; DataError without steps or ground truth. Sets
 // the report's map counts from the last map message.
@@ -165,8 +199,12 @@ AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions
     } else if (ch == options.map_channel) {
       const auto m = decodeEvent<vslam::appearance_map_t>(e, "vslam.appearance_map_t");
       for (const auto& s : m.states) in.state_utime.emplace(s.state_id, s.utime);
+      if (!m.states.empty()) in.cameras = m.states.front().cameras;
       r->map_states = m.num_states;
       r->map_links = m.num_links;
+    } else if (isCalibration(e)) {
+      const auto c = decodeEvent<vslam::camera_calibration_t>(e, "vslam.camera_calibration_t");
+      in.calibrations[c.camera] = c;
     }
   });
   if (in.steps.empty()) {
@@ -179,6 +217,11 @@ AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions
   }
   std::sort(in.truth.begin(), in.truth.end(),
             [](const TruePose& a, const TruePose& b) { return a.utime < b.utime; });
+  if (const auto names = oppositeCameras(in)) {
+    in.either_way = true;
+    r->states_either_way = true;
+    r->either_way_cameras = *names;
+  }
   // The new-state hypothesis of each step names the state its snapshot made.
   for (const auto& s : in.steps) {
     for (const auto& h : s.hypotheses) {
@@ -210,17 +253,24 @@ class StateTruth {
     e->ex = then.x - now.x;
     e->ey = then.y - now.y;
     e->eheading = wrapAngle(then.theta - now.theta);
+    // A state revisited turned around: its error from the turned heading.
+    if (in_.either_way && std::abs(e->eheading) > M_PI / 2) {
+      e->eheading = wrapAngle(e->eheading - M_PI);
+    }
     return true;
   }
 
   // The robot's true distance at `utime` to the nearest state made before
-  // `made_before` and facing within 45 degrees of it; NaN if none.
+  // `made_before` and facing within 45 degrees of it (or of it turned
+  // around, if the states count either way); NaN if none.
   double nearestState(int64_t utime, int64_t made_before) const {
     TruePose now;
     if (!truthAt(in_.truth, utime, &now)) return kNaN;
     double best = kNaN;
     for (const auto& [t, p] : state_truth_) {
-      if (t >= made_before || std::abs(wrapAngle(p.theta - now.theta)) > M_PI / 4) continue;
+      const double turn = std::abs(wrapAngle(p.theta - now.theta));
+      const bool facing = turn <= M_PI / 4 || (in_.either_way && turn >= 3 * M_PI / 4);
+      if (t >= made_before || !facing) continue;
       const double d = std::hypot(p.x - now.x, p.y - now.y);
       if (!(d >= best)) best = d;
     }
@@ -406,6 +456,9 @@ void printAppearanceReport(std::ostream& out, const AppearanceReport& r) {
       << "  nearest state         " << fmt(r.mean_nearest_state_distance)
       << " m on average: the floor of the position error (the robot's true distance to the\n"
       << "                        nearest earlier state, weighted as the hypotheses above)\n"
+      << (r.states_either_way ? "                        states count facing either way: cameras " +
+                                    r.either_way_cameras + " face opposite ways\n"
+                              : std::string())
       << "  weighted by belief    position error " << fmt(r.weighted_position_error)
       << " m, nearest state " << fmt(r.weighted_nearest_state_distance)
       << " m (each hypothesis counted by its\n"
@@ -465,6 +518,7 @@ void writeAppearanceJson(const fs::path& file, const AppearanceReport& r) {
   j["steps_best_revisit"] = r.steps_best_revisit;
   j["mean_best_position_error_m"] = jsonNumber(r.mean_best_position_error);
   j["mean_nearest_state_distance_m"] = jsonNumber(r.mean_nearest_state_distance);
+  j["states_either_way"] = r.states_either_way;
   j["mean_step_seconds"] = jsonNumber(r.mean_step_seconds);
   j["revisit_steps"] = r.revisit_steps;
   j["revisit_steps_recognized"] = r.revisit_steps_recognized;

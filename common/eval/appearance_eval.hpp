@@ -41,7 +41,8 @@ struct AppearanceEvalOptions {
   std::string ref_channel = "GROUND_TRUTH";
   double action_length_m = 1.0;  // a re-localisation is correct within this distance
   // The robot is at a mapped place when a state made before (not at the
-  // step just before) is this close and faces within 45 degrees.
+  // step just before) is this close and faces within 45 degrees (of the
+  // robot, or of the robot turned around: AppearanceReport::states_either_way).
   double revisit_radius_m = 0.5;
   double carry_step_m = 0.5;  // a ground-truth step longer than this is a carry or kidnapping
 };
@@ -109,6 +110,12 @@ struct AppearanceReport {
   int64_t states_created = 0;  // distinct new-state ids seen (one per snapshot that had one)
   int64_t map_states = -1;     // states in the last map message; -1 if none
   int64_t map_links = -1;
+  // The appearance process's cameras (from its map messages) include two
+  // that face opposite ways (their calibration messages in the log;
+  // appearance::turnedCameras): a state then counts as mapped facing either
+  // way, for the nearest state, the mapped places and the heading errors.
+  bool states_either_way = false;
+  std::string either_way_cameras;  // e.g. "forward/backward"
   int max_hypotheses = 0;
   double mean_hypotheses = 0;
   // Over every revisit hypothesis of every step.
@@ -120,9 +127,9 @@ struct AppearanceReport {
   double mean_best_position_error = 0;
   // The floor of the position error: on the same steps as the revisit
   // hypotheses, the true distance from the robot to the nearest state made
-  // before (heading within 45 degrees), i.e. what the best possible
-  // hypothesis would score. A second lap driven beside the first cannot do
-  // better than this.
+  // before (heading within 45 degrees, either way if states_either_way), i.e. what the best
+  // possible hypothesis would score. A second lap driven beside the first cannot do better than
+  // this.
   double mean_nearest_state_distance = 0;
   // The same two weighted by each hypothesis' belief: where the tree
   // believes the robot is.

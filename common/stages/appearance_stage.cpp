@@ -128,6 +128,12 @@ config::ParamTable<P> hypothesisTreeKeys() {
           "the paper's tree only")
       .required()
       .add(
+          "relocalization_match_ratio",
+          [](auto& p) -> auto& { return p.slam.relocalization_match_ratio; }, InRange{1e-6, 1}, "",
+          "a state is seeded only if its χ² to the snapshot is at most this fraction of the "
+          "new state's score (1: any state that looks more like it than a new place)")
+      .required()
+      .add(
           "relocalization_recent_visits",
           [](auto& p) -> auto& { return p.slam.relocalization_recent_visits; }, InRange{0, 100000},
           "visits",
@@ -135,6 +141,10 @@ config::ParamTable<P> hypothesisTreeKeys() {
           "(there the trace decides; in a corridor the state a metre back looks like the "
           "snapshot)")
       .required()
+      .add("turned_revisits", &P::turned_revisits,
+           "a state can be revisited and seeded facing the other way, each camera compared with "
+           "the one that faced its way then (cameras of the robot file that face opposite ways, "
+           "e.g. forward and backward)")
       .add(
           "action_error", [](auto& p) -> auto& { return p.action_error.relative_translation; },
           config::nonNegative(), "per m, per rad",
@@ -215,6 +225,14 @@ AppearanceStage::AppearanceStage(AppearanceParams params)
             appearance::histogramLength(params_.histogram)),
       detector_(params_.action) {
   slam_.setActionModel(params_.action_error);
+  if (params_.turned_revisits) {
+    std::vector<appearance::CameraView> views;
+    for (const auto& c : params_.cameras) {
+      views.push_back({c.robot_T_camera.linear().col(2),
+                       c.fx > 0 ? 2.0 * std::atan(0.5 * c.width / c.fx) : 0.0});
+    }
+    slam_.setTurnedCameras(appearance::turnedCameras(views));
+  }
   const bool load = params_.map_load && !params_.map_file.empty();
   if (std::error_code ec; load && std::filesystem::exists(params_.map_file, ec)) {
     // A map that cannot be used is a configuration error: better to stop

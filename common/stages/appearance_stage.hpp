@@ -44,6 +44,9 @@ struct AppearanceParams {
   double input_timeout_s = 2.0;     // quieter images or odometry: logged once, health WARN
   appearance::HistogramParams histogram;
   appearance::SlamParams slam;
+  // Revisits and seeds with the robot turned around, through cameras that
+  // face each other's way (appearance::turnedCameras of the robot file).
+  bool turned_revisits = true;
   appearance::ActionErrorModel action_error;
   double map_period_s = 5.0;
   std::filesystem::path map_file;  // empty: no persistence

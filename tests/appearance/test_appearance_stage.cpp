@@ -42,7 +42,7 @@ void replayAppearance(const config::StackConfig& stack, const fs::path& input,
   options.input = input;
   options.output = output;
   options.keep_health = keep_health;
-  options.input_channels = "ODOMETRY|GROUND_TRUTH|CAM_.*_IMAGE";
+  options.input_channels = "ODOMETRY|GROUND_TRUTH|CAM_.*_IMAGE|CAM_.*_CALIBRATION";
   bus::LockstepReplay replay(options);
   replay.addStage("appearance", stages::builtinStages().create(stack, "appearance"));
   replay.run();
@@ -192,6 +192,10 @@ TEST_F(AppearanceStageTest, RelocalizesOnTheSecondLapOfTheLoopAndReloadsItsMap) 
   const eval::AppearanceReport r = eval::evaluateAppearanceLog(dir / "run.lcmlog", {});
   // 64 actions a lap, two laps, plus the first snapshot.
   EXPECT_EQ(r.steps.size(), 129u);
+  // The simulated robot's forward and backward cameras (their calibration
+  // messages in the log) face opposite ways: states count either way.
+  EXPECT_TRUE(r.states_either_way);
+  EXPECT_EQ(r.either_way_cameras, "forward/backward");
   const int64_t lap = 64;
   // Re-localised on the second lap, to the right place.
   ASSERT_FALSE(r.relocalizations.empty());

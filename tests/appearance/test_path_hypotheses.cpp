@@ -5,6 +5,7 @@
 // the stored histograms exactly, so chi2 = 0 for the right place.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -174,8 +175,17 @@ TEST(PathHypotheses, PruningThresholdAndBound) {
       ASSERT_LE(r.hypotheses.size(), 5u);
       ASSERT_EQ(slam.hypotheses().size(), r.hypotheses.size());
       EXPECT_NEAR(beliefSum(r), 1.0, 1e-9);
+      // Most believed first: by the summed belief of the hypotheses in the
+      // same state (where the robot is now), then by belief.
+      std::map<int64_t, double> at_state;
+      for (const auto& h : r.hypotheses) at_state[h.state_id] += h.belief;
       for (size_t k = 1; k < r.hypotheses.size(); ++k) {
-        EXPECT_LE(r.hypotheses[k].belief, r.hypotheses[k - 1].belief) << "most believed first";
+        const double here = at_state[r.hypotheses[k].state_id];
+        const double before = at_state[r.hypotheses[k - 1].state_id];
+        EXPECT_LE(here, before + 1e-12) << "the most believed place first";
+        if (r.hypotheses[k].state_id == r.hypotheses[k - 1].state_id) {
+          EXPECT_LE(r.hypotheses[k].belief, r.hypotheses[k - 1].belief) << "then by belief";
+        }
       }
       // Survivors were above the threshold before renormalisation, so above it after.
       for (const auto& h : r.hypotheses) EXPECT_GE(h.belief, p.min_belief);
@@ -448,4 +458,125 @@ TEST(RelocalizationSeeds, ARestartInASavedMapRelocalizesWhenItReachesTheMap) {
   }
   EXPECT_GE(first_correct, 0) << "never re-entered the saved map";
   EXPECT_LE(first_correct, 3);
+}
+
+// Where in a state (an addition): a revisit keeps the robot's traced pose
+// drawn toward the state by its extent, offset = S_place (S_trace +
+// S_place)^-1 r, and the saved path goes from state to state with it.
+TEST(PathHypotheses, ARevisitKeepsWhereTheRobotStoodInTheState) {
+  SlamParams p = params();
+  p.new_state_ratio = 4.0;  // a view close to state 0's is state 0
+  AppearanceSlam slam(p, 1, kBins);
+  slam.setActionModel(model());
+  slam.initialize(snapshotAt(0));
+  const Pose2 u{0.3, 0.1, 0.05};
+  Snapshot z = snapshotAt(0);  // state 0's view, a little changed, 0.3 m on
+  z.histograms[0][0] = 0.5f;
+  z.histograms[0][1] = 0.1f;
+  slam.step(u, z);
+  const Hypothesis* revisit = nullptr;
+  for (const auto& h : slam.hypotheses())
+    if (!h.node->is_new) revisit = &h;
+  ASSERT_NE(revisit, nullptr);
+  ASSERT_EQ(revisit->node->state_id, 0);
+  ASSERT_EQ(slam.best().node.get(), revisit->node.get()) << "the identical view should lead";
+
+  const Eigen::Matrix3d trace = model().covariance(u);
+  Eigen::Matrix3d place = Eigen::Matrix3d::Zero();
+  place.diagonal() << p.place_sigma_m * p.place_sigma_m, p.place_sigma_m * p.place_sigma_m,
+      p.place_sigma_rad * p.place_sigma_rad;
+  const Eigen::Matrix3d gain_complement = place * (trace + place).inverse();
+  const Eigen::Vector3d offset = gain_complement * Eigen::Vector3d(u.x, u.y, u.theta);
+  const Eigen::Matrix3d offset_cov = gain_complement * trace;
+  EXPECT_NEAR(revisit->node->offset.x, offset.x(), 1e-12);
+  EXPECT_NEAR(revisit->node->offset.y, offset.y(), 1e-12);
+  EXPECT_NEAR(revisit->node->offset.theta, offset.z(), 1e-12);
+  EXPECT_TRUE(revisit->node->offset_covariance.isApprox(offset_cov, 1e-9));
+  // Drawn toward the state, not onto it (S_trace is not zero).
+  EXPECT_GT(revisit->node->offset.x, 0.05);
+  EXPECT_LT(revisit->node->offset.x, u.x);
+
+  // Saved: the link into the revisit ends at the state, u (+) offset^-1.
+  const SavedMap map = slam.bestMap({"cam"});
+  ASSERT_EQ(map.path.size(), 2u);
+  const Pose2 expected = u.compose(revisit->node->offset.inverse());
+  EXPECT_NEAR(map.path[1].link.action.x, expected.x, 1e-12);
+  EXPECT_NEAR(map.path[1].link.action.y, expected.y, 1e-12);
+  EXPECT_NEAR(map.path[1].link.action.theta, expected.theta, 1e-12);
+}
+
+// Turned around (an addition): a forward and a backward camera, a corridor
+// of 8 places 1 m apart driven to its end, and back. At each place the
+// forward camera saw F_p and the backward one B_p; on the way back the
+// forward camera sees B_p and the backward one F_p. With the cameras known
+// to face each other's way the way back re-visits the corridor's states
+// (from the turn on, every step, each the right one) and the map does not
+// grow; without, it is a new corridor.
+TEST(TurnedAround, TheWayBackIsRecognizedThroughTheOtherCamera) {
+  constexpr int kCorridor = 8;
+  const auto view = [](int look) {
+    Histogram h(kBins, 0.f);
+    h[static_cast<size_t>(look % kBins)] = 0.6f;
+    h[static_cast<size_t>((look + 3) % kBins)] = 0.4f;
+    return h;
+  };
+  const auto forwardView = [&](int place) { return view(place); };
+  const auto backwardView = [&](int place) { return view(place + kCorridor); };
+  for (const bool turned : {true, false}) {
+    AppearanceSlam slam(params(), 2, kBins);
+    slam.setActionModel(model());
+    if (turned)
+      slam.setTurnedCameras(
+          turnedCameras({{Eigen::Vector3d::UnitX(), 1.0}, {-Eigen::Vector3d::UnitX(), 1.0}}));
+    Snapshot z;
+    z.histograms = {forwardView(0), backwardView(0)};
+    slam.initialize(z);
+    for (int place = 1; place < kCorridor; ++place) {
+      z.histograms = {forwardView(place), backwardView(place)};
+      ASSERT_TRUE(slam.step({1, 0, 0}, z).best().is_new_state);
+    }
+    // Turn around at the end, then drive back.
+    int recognized = 0;
+    for (int place = kCorridor - 1; place >= 0; --place) {
+      z.histograms = {backwardView(place), forwardView(place)};
+      const StepResult r =
+          slam.step(place == kCorridor - 1 ? Pose2{0, 0, M_PI} : Pose2{1, 0, 0}, z);
+      if (!r.best().is_new_state) {
+        EXPECT_EQ(r.best().state_id, place) << "a wrong revisit";
+        ++recognized;
+      }
+    }
+    if (turned) {
+      EXPECT_EQ(recognized, kCorridor) << "the way back was not followed state to state";
+      EXPECT_EQ(slam.best().node->num_states, kCorridor) << "the map grew";
+    } else {
+      EXPECT_EQ(recognized, 0) << "without the turned cameras no view of the way back matches";
+    }
+  }
+}
+
+TEST(TurnedAround, CamerasThatFaceEachOthersWay) {
+  const Eigen::Vector3d forward = Eigen::Vector3d::UnitX();
+  const double fov = 1.0;
+  const auto yawed = [](double deg) {
+    const double a = deg * M_PI / 180;
+    return Eigen::Vector3d(std::cos(a), std::sin(a), 0);
+  };
+  using V = std::vector<int>;
+  EXPECT_EQ(turnedCameras({{forward, fov}, {-forward, fov}}), (V{1, 0}));
+  EXPECT_EQ(turnedCameras({{forward, fov}, {yawed(183), fov}}), (V{1, 0})) << "within 5 degrees";
+  EXPECT_EQ(turnedCameras({{forward, fov}}), (V{-1}));
+  EXPECT_EQ(turnedCameras({{forward, fov}, {yawed(90), fov}}), (V{-1, -1})) << "sideways";
+  EXPECT_EQ(turnedCameras({{forward, fov}, {yawed(170), fov}}), (V{-1, -1}));
+  // Tilted up 20 degrees, or seeing wider: their histograms are not comparable.
+  const Eigen::Vector3d tilted(-std::cos(0.35), 0, std::sin(0.35));
+  EXPECT_EQ(turnedCameras({{forward, fov}, {tilted, fov}}), (V{-1, -1}));
+  EXPECT_EQ(turnedCameras({{forward, fov}, {-forward, 1.5}}), (V{-1, -1}));
+  // A third camera facing forward again: the first backward match is taken.
+  EXPECT_EQ(turnedCameras({{forward, fov}, {-forward, fov}, {forward, fov}}), (V{1, 0, 1}));
+  // setTurnedCameras checks what it is given.
+  AppearanceSlam slam(params(), 2, kBins);
+  EXPECT_THROW(slam.setTurnedCameras({1}), std::invalid_argument);
+  EXPECT_THROW(slam.setTurnedCameras({1, 2}), std::invalid_argument);
+  EXPECT_NO_THROW(slam.setTurnedCameras({-1, -1}));
 }

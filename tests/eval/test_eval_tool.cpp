@@ -549,6 +549,7 @@ TEST_F(EvalTool, AppearanceJsonWritesNullForNoValue) {
                                                       "steps_best_revisit",
                                                       "mean_best_position_error_m",
                                                       "mean_nearest_state_distance_m",
+                                                      "states_either_way",
                                                       "mean_step_seconds",
                                                       "revisit_steps",
                                                       "revisit_steps_recognized",
