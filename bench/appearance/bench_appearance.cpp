@@ -77,6 +77,10 @@ Setup& setupFor(int states) {
   ActionErrorModel model;
   model.odometry_translation = model.odometry_rotation = 0.03;
   s->slam.setActionModel(model);
+  // A forward and a backward camera, as the simulated robot's: every state
+  // is also tried turned around.
+  s->slam.setTurnedCameras(
+      turnedCameras({{Eigen::Vector3d::UnitX(), 1.0}, {-Eigen::Vector3d::UnitX(), 1.0}}));
   const int side = states / 4;
   for (int i = 0; i < states; ++i) s->plan += (i % side == side - 1) ? 'L' : 'F';
   std::mt19937 rng(7);
