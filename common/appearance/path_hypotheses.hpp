@@ -55,8 +55,9 @@
 // new state (no mapped place explains its snapshot), p also gets a child
 // "put down in state x_k" for the relocalization_candidates states of its
 // map that look most like the snapshot, and clearly more like it than a new
-// place would (relocalization_match_ratio), but for those p's trace reaches or visited in its last
-// relocalization_recent_visits steps (there the trace decides), with
+// place would (relocalization_match_ratio), but for those p's trace reaches
+// or visited in its last relocalization_recent_visits steps (there the
+// trace decides), with
 //   theta(child) = alpha P(z | x_k) relocalization_prior,
 // the prior taken from the whole tree (whose belief sums to 1) rather than
 // from p's share of it, which is split among hypotheses that differ only in
@@ -73,8 +74,8 @@
 // it. Each visit keeps the robot's pose in its state's frame with a
 // covariance: for a revisit, the Kalman update of the traced pose
 // N(r, S_trace) by "the robot is at the state" N(0, S_place),
-//   offset = S_place (S_trace + S_place)^-1 r,  covariance = S_place (S_trace + S_place)^-1
-//   S_trace;
+//   offset     = S_place (S_trace + S_place)^-1 r,
+//   covariance = S_place (S_trace + S_place)^-1 S_trace;
 // for a relocalization seed (nothing traced) N(0, S_place). Tracing from a
 // revisit starts from that offset, so a robot that keeps to a parallel
 // track is predicted there at the next state instead of being charged its
@@ -82,9 +83,25 @@
 // hypothesis for being half a metre beside the states it matches). The
 // saved path folds the offsets into its links (state to state).
 //
+// Turned around (an addition). With cameras that face each other's way
+// (setTurnedCameras: a forward and a backward camera), a robot back at a
+// state facing the other way sees with each camera what the other saw
+// there. Each state is then also a candidate turned around: the trace is
+// tested against the state's pose turned by pi (the same gate and extent),
+// P(z | x) compares each camera with the one that faced its way, a seed
+// takes whichever orientation looks more like the snapshot, and the
+// visit's offset holds the pi.
+//
+// The most believed place (an addition). Hypotheses that differ only in
+// earlier choices agree on where the robot is now, so the belief that it is
+// in a state is the sum over the hypotheses ending there (the new state's
+// is split among every path that leads to it). The hypotheses are ordered,
+// and the first is the one published and whose map is saved, by that sum,
+// then by belief.
+//
 // Each hypothesis implies its own map: the states it created (new-state
 // steps) and the links along its path. The map of the most believed
-// hypothesis is the map the process publishes and saves.
+// hypothesis (the first, above) is the map the process publishes and saves.
 
 #include <Eigen/Core>
 #include <cstdint>
