@@ -203,8 +203,14 @@ AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions
       r->map_states = m.num_states;
       r->map_links = m.num_links;
     } else if (isCalibration(e)) {
-      const auto c = decodeEvent<vslam::camera_calibration_t>(e, "vslam.camera_calibration_t");
-      in.calibrations[c.camera] = c;
+      // Only says whether states count either way: a damaged one is named
+      // and skipped, not a reason to judge nothing.
+      try {
+        const auto c = decodeEvent<vslam::camera_calibration_t>(e, "vslam.camera_calibration_t");
+        in.calibrations[c.camera] = c;
+      } catch (const DataError& err) {
+        log::warn(err.what(), ": skipped");
+      }
     }
   });
   if (in.steps.empty()) {

@@ -10,6 +10,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <vector>
+#include <vslam/appearance_hypotheses_t.hpp>
+#include <vslam/appearance_map_t.hpp>
+#include <vslam/camera_calibration_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
 #include <vslam/map_t.hpp>
 #include <vslam/odometry_t.hpp>
@@ -558,4 +561,106 @@ TEST_F(EvalTool, AppearanceJsonWritesNullForNoValue) {
                                                       "relocalizations_wrong",
                                                       "kidnaps",
                                                       "relocalizations"}));
+}
+
+// The appearance evaluation counts a state as mapped facing either way when
+// the process's cameras (its map message) face opposite ways (their
+// calibration messages). A robot drives 4 m east, turns and drives back:
+// the way back passes the first states turned around. Cameras forward and
+// backward: the way back is at mapped places; forward and left: it is not;
+// the backward camera's calibration damaged: named, skipped, not either way.
+TEST_F(EvalTool, AppearanceStatesCountEitherWayWithCamerasFacingOpposite) {
+  enum class Second { kBackward, kLeft, kDamaged };
+  const auto evaluate = [&](Second second) {
+    const fs::path log_file = dir_ / "appearance.lcmlog";
+    {
+      vslam::bus::LogWriter log(log_file);
+      const auto calibration = [&](const std::string& name, double yaw) {
+        vslam::camera_calibration_t c{};
+        c.utime = kT0;
+        c.camera = name;
+        c.image_channel = "CAM_" + name;
+        c.width = 320;
+        c.height = 240;
+        c.fx = c.fy = 250;
+        c.cx = 160;
+        c.cy = 120;
+        // Optical axis along the robot's heading turned by yaw: camera z =
+        // (cos, sin, 0), x = (sin, -cos, 0), y = (0, 0, -1).
+        Eigen::Matrix3d r;
+        r.col(0) = Eigen::Vector3d(std::sin(yaw), -std::cos(yaw), 0);
+        r.col(1) = Eigen::Vector3d(0, 0, -1);
+        r.col(2) = Eigen::Vector3d(std::cos(yaw), std::sin(yaw), 0);
+        const Eigen::Quaterniond q(r);
+        c.robot_q_camera[0] = q.w();
+        c.robot_q_camera[1] = q.x();
+        c.robot_q_camera[2] = q.y();
+        c.robot_q_camera[3] = q.z();
+        return c;
+      };
+      log.writeMessage(kT0, "CAM_FORWARD_CALIBRATION", calibration("forward", 0));
+      if (second == Second::kDamaged) {
+        std::vector<uint8_t> data(
+            static_cast<size_t>(calibration("backward", M_PI).getEncodedSize()));
+        calibration("backward", M_PI).encode(data.data(), 0, static_cast<int>(data.size()));
+        data.resize(20);  // the fingerprint and a few bytes
+        log.write(kT0, "CAM_BACKWARD_CALIBRATION", data);
+      } else {
+        const bool left = second == Second::kLeft;
+        log.writeMessage(kT0, left ? "CAM_LEFT_CALIBRATION" : "CAM_BACKWARD_CALIBRATION",
+                         calibration(left ? "left" : "backward", left ? M_PI / 2 : M_PI));
+      }
+      const std::string other = second == Second::kLeft ? "left" : "backward";
+      // Steps 0-4 at x = 0..4 facing east, 5-9 at x = 4..0 facing west; each a new state.
+      vslam::appearance_map_t map{};
+      for (int k = 0; k < 10; ++k) {
+        const int64_t t = kT0 + 1000000LL * (k + 1);
+        const bool back = k >= 5;
+        vslam::ground_truth_pose_t gt{};
+        gt.utime = t;
+        gt.x = back ? 9 - k : k;
+        gt.theta = back ? M_PI : 0;
+        log.writeMessage(t, "GROUND_TRUTH", gt);
+        log.writeMessage(t + 1, "GROUND_TRUTH", gt);
+        vslam::appearance_hypotheses_t h{};
+        h.utime = t;
+        h.step = k;
+        h.best_state_id = k;
+        h.best_belief = 1;
+        vslam::appearance_hypothesis_t leaf{};
+        leaf.hypothesis_id = k;
+        leaf.parent_id = k - 1;
+        leaf.state_id = k;
+        leaf.is_new_state = true;
+        leaf.belief = 1;
+        leaf.path_length = k + 1;
+        h.hypotheses.push_back(leaf);
+        h.num_hypotheses = 1;
+        log.writeMessage(t, "APPEARANCE_HYPOTHESES", h);
+        vslam::appearance_state_t st{};
+        st.state_id = k;
+        st.utime = t;
+        st.num_cameras = 2;
+        st.num_bins = 1;
+        st.cameras = {"forward", other};
+        st.histograms = {{1.f}, {1.f}};
+        map.states.push_back(st);
+      }
+      map.utime = kT0 + 11000000;
+      map.num_states = static_cast<int32_t>(map.states.size());
+      log.writeMessage(map.utime, "APPEARANCE_MAP", map);
+    }
+    return vslam::eval::evaluateAppearanceLog(log_file, {});
+  };
+  const auto opposite = evaluate(Second::kBackward);
+  EXPECT_TRUE(opposite.states_either_way);
+  EXPECT_EQ(opposite.either_way_cameras, "forward/backward");
+  // The way back (steps 6-9; 5 is at the turn, beside state 4 made just before)
+  // passes states 3..0 turned around: mapped places.
+  EXPECT_EQ(opposite.revisit_steps, 4);
+  for (const Second other : {Second::kLeft, Second::kDamaged}) {
+    const auto r = evaluate(other);
+    EXPECT_FALSE(r.states_either_way);
+    EXPECT_EQ(r.revisit_steps, 0) << "a state passed the other way is not a mapped place";
+  }
 }
