@@ -55,6 +55,10 @@ Trace inVisitFrame(const PathNode& visit, Trace t) {
 
 }  // namespace
 
+CameraView cameraView(const Eigen::Matrix3d& robot_R_camera, int width_px, double fx_px) {
+  return {robot_R_camera.col(2), fx_px > 0 ? 2.0 * std::atan(0.5 * width_px / fx_px) : 0.0};
+}
+
 std::vector<int> turnedCameras(const std::vector<CameraView>& cameras) {
   constexpr double kTolerance = 5.0 * M_PI / 180.0;
   const auto heading = [](const Eigen::Vector3d& a) { return std::atan2(a.y(), a.x()); };

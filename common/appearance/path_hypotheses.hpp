@@ -257,6 +257,9 @@ struct CameraView {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
   double horizontal_fov_rad = 0;
 };
+// From a camera's rotation robot <- camera (OpenCV axes: z the optical
+// axis), its image width and focal length in pixels.
+CameraView cameraView(const Eigen::Matrix3d& robot_R_camera, int width_px, double fx_px);
 
 // For AppearanceSlam::setTurnedCameras: turned[i] is the camera whose axis is
 // camera i's turned by 180 degrees about the vertical (headings within

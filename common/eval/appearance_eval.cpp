@@ -162,8 +162,7 @@ std::optional<std::string> oppositeCameras(const AppearanceLog& in) {
     const auto& c = it->second;
     const Eigen::Quaterniond q(c.robot_q_camera[0], c.robot_q_camera[1], c.robot_q_camera[2],
                                c.robot_q_camera[3]);
-    views.push_back({q.normalized().toRotationMatrix().col(2),
-                     c.fx > 0 ? 2.0 * std::atan(0.5 * c.width / c.fx) : 0.0});
+    views.push_back(appearance::cameraView(q.normalized().toRotationMatrix(), c.width, c.fx));
   }
   const auto turned = appearance::turnedCameras(views);
   for (size_t i = 0; i < turned.size(); ++i) {

@@ -228,8 +228,7 @@ AppearanceStage::AppearanceStage(AppearanceParams params)
   if (params_.turned_revisits) {
     std::vector<appearance::CameraView> views;
     for (const auto& c : params_.cameras) {
-      views.push_back({c.robot_T_camera.linear().col(2),
-                       c.fx > 0 ? 2.0 * std::atan(0.5 * c.width / c.fx) : 0.0});
+      views.push_back(appearance::cameraView(c.robot_T_camera.linear(), c.width, c.fx));
     }
     slam_.setTurnedCameras(appearance::turnedCameras(views));
   }
