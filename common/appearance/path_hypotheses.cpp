@@ -53,6 +53,25 @@ Trace inVisitFrame(const PathNode& visit, Trace t) {
   return t;
 }
 
+// Eq. 4 averaged over the cameras both have: camera c of z against camera
+// camera_of(c) of the state (-1: none); NaN if none compares.
+template <typename CameraOf>
+double meanChiSquare(const std::vector<Histogram>& z, const std::vector<Histogram>& state,
+                     CameraOf camera_of) {
+  double sum = 0;
+  int n = 0;
+  for (size_t c = 0; c < z.size(); ++c) {
+    const int s = camera_of(c);
+    if (s < 0 || static_cast<size_t>(s) >= state.size() || z[c].empty() ||
+        state[static_cast<size_t>(s)].empty()) {
+      continue;
+    }
+    sum += chiSquare(z[c], state[static_cast<size_t>(s)]);
+    ++n;
+  }
+  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
 }  // namespace
 
 CameraView cameraView(const Eigen::Matrix3d& robot_R_camera, int width_px, double fx_px) {
@@ -123,30 +142,13 @@ const State& AppearanceSlam::state(int64_t id) const {
 }
 
 double AppearanceSlam::distance(const std::vector<Histogram>& a, const std::vector<Histogram>& b) {
-  double sum = 0;
-  int n = 0;
-  for (size_t c = 0; c < std::min(a.size(), b.size()); ++c) {
-    if (a[c].empty() || b[c].empty()) continue;
-    sum += chiSquare(a[c], b[c]);
-    ++n;
-  }
-  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+  return meanChiSquare(a, b, [](size_t c) { return static_cast<int>(c); });
 }
 
 double AppearanceSlam::turnedDistance(const std::vector<Histogram>& z,
                                       const std::vector<Histogram>& state) const {
-  double sum = 0;
-  int n = 0;
-  for (size_t c = 0; c < z.size() && c < turned_camera_.size(); ++c) {
-    const int t = turned_camera_[c];
-    if (t < 0 || static_cast<size_t>(t) >= state.size() || z[c].empty() ||
-        state[static_cast<size_t>(t)].empty()) {
-      continue;
-    }
-    sum += chiSquare(z[c], state[static_cast<size_t>(t)]);
-    ++n;
-  }
-  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+  return meanChiSquare(
+      z, state, [this](size_t c) { return c < turned_camera_.size() ? turned_camera_[c] : -1; });
 }
 
 void AppearanceSlam::setTurnedCameras(const std::vector<int>& turned) {
