@@ -438,7 +438,14 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   // last relocalization_recent_visits visits: over a few links the trace is
   // reliable, and it alone says whether the robot is back (in a corridor the
   // state a metre back looks like the snapshot, and is not where the robot
-  // is).
+  // is). Unless the view jumped: a snapshot that looks no more like h's
+  // last state than a new place would is not the next view along a
+  // corridor, and a carried robot is often put down beside the states it
+  // made just before.
+  double last_state_log = observationLog(h.node->state_id, z.histograms);
+  if (can_turn_)
+    last_state_log = std::max(last_state_log, observationLog(h.node->state_id, z.histograms, true));
+  const bool view_jumped = last_state_log <= logNew();
   ++generation_;
   for (const int64_t s : reachable) seen_[static_cast<size_t>(s)] = generation_;
   struct Match {
@@ -452,7 +459,7 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   int visits = 0;
   for (const PathNode* n = h.node.get(); n; n = n->parent.get()) {
     const size_t s = static_cast<size_t>(n->state_id);
-    const bool recent = visits++ < params_.relocalization_recent_visits;
+    const bool recent = !view_jumped && visits++ < params_.relocalization_recent_visits;
     if (seen_[s] == generation_) continue;
     seen_[s] = generation_;
     if (recent) continue;

@@ -57,7 +57,9 @@
 // map that look most like the snapshot, and clearly more like it than a new
 // place would (relocalization_match_ratio), but for those p's trace reaches
 // or visited in its last relocalization_recent_visits steps (there the
-// trace decides), with
+// trace decides; but a view that jumped, one that looks no more like p's
+// last state than a new place would, seeds those too: a carried robot is
+// often put down beside the states it made just before), with
 //   theta(child) = alpha P(z | x_k) relocalization_prior,
 // the prior taken from the whole tree (whose belief sums to 1) rather than
 // from p's share of it, which is split among hypotheses that differ only in
@@ -202,10 +204,11 @@ struct SlamParams {
   // like the snapshot, each with prior relocalization_prior (the probability
   // that the robot was put down there since the last step). 0 candidates:
   // the paper's tree only.
-  double relocalization_prior = 0.03;
+  double relocalization_prior = 0.1;
   int relocalization_candidates = 2;
-  // No seed in a state the trace reaches or among the path's last this many
-  // visits: there the trace decides.
+  // No seed in a state the trace reaches or, unless the view jumped (the
+  // snapshot looks no more like the path's last state than a new place
+  // would), among the path's last this many visits: there the trace decides.
   int relocalization_recent_visits = 4;
   // A state is seeded only if its chi2 to the snapshot is at most this
   // fraction of the new-state score's (P(z | x_k) >= P(z | new) ratio^-beta):

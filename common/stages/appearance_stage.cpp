@@ -139,7 +139,8 @@ config::ParamTable<P> hypothesisTreeKeys() {
           "visits",
           "no seed in a state that the trace reaches or that is among the path's last visits "
           "(there the trace decides; in a corridor the state a metre back looks like the "
-          "snapshot)")
+          "snapshot), unless the view jumped: the snapshot looks no more like the path's last "
+          "state than a new place would")
       .required()
       .add("turned_revisits", &P::turned_revisits,
            "a state can be revisited and seeded facing the other way, each camera compared with "

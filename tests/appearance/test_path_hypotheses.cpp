@@ -415,6 +415,53 @@ TEST(RelocalizationSeeds, LookAlikePlacesDoNotCommitAWrongRelocalization) {
   }
 }
 
+// Carried back to place 9 at the end of the lap (odometry: on to place 0),
+// beside the states the robot made just before. They are among the path's
+// last visits, which seeds skip while the trace decides there; but the view
+// jumped (the snapshot looks no more like the last state, 11, than a new
+// place would), so they are seeded too and the robot is back at once, not
+// only when it reaches place 0, an older state, three steps later.
+TEST(RelocalizationSeeds, ACarriedRobotRelocalizesBesideTheStatesItJustMade) {
+  AppearanceSlam slam(seedingParams(), 1, kBins);
+  slam.setActionModel(model());
+  int first_correct = -1;
+  lapThenCarried(slam, 9, 4, {}, [&](int k, int place, const StepResult& r) {
+    const bool correct = !r.best().is_new_state && r.best().state_id == place;
+    if (correct && first_correct < 0) first_correct = k;
+    if (!r.best().is_new_state) {
+      EXPECT_EQ(r.best().state_id, place) << "a wrong revisit, step " << k;
+    }
+  });
+  EXPECT_GE(first_correct, 0) << "never re-localized";
+  EXPECT_LE(first_correct, 1) << "re-localized only at an older state";
+}
+
+// Along a corridor whose views all look alike, each snapshot looks like the
+// states made just before, a metre back: the view did not jump, so those
+// states are not seeded and the robot is somewhere new at every step.
+TEST(RelocalizationSeeds, ACorridorOfLookAlikeViewsSeedsNoneOfItsLastStates) {
+  for (const int recent_visits : {4, 0}) {
+    SlamParams p = seedingParams();
+    p.relocalization_recent_visits = recent_visits;
+    AppearanceSlam slam(p, 1, kBins);
+    slam.setActionModel(model());
+    slam.initialize(noisyView(0, 0));
+    for (int i = 0; i < kPlaces - 1; ++i) slam.step(actionOf(kLap[i]), noisyView(i + 1, 0));
+    // Out of the square and down a corridor: every view is place 20's look
+    // (a bin no lap place uses) with its own noise.
+    int revisits = 0;
+    for (int k = 0; k < 6; ++k) {
+      const StepResult r = slam.step({1, 0, 0}, noisyView(kBins - 1, k));
+      if (!r.best().is_new_state) ++revisits;
+    }
+    if (recent_visits > 0) {
+      EXPECT_EQ(revisits, 0) << "took the corridor's last states for where the robot is";
+    } else {
+      EXPECT_GT(revisits, 0) << "without the rule the corridor's last states should be taken";
+    }
+  }
+}
+
 // A restart in a saved map somewhere the map does not cover: the first
 // snapshot matches no state (loadMap's global localization finds nothing),
 // the robot drives two unmapped steps and then into the map, where a seed
