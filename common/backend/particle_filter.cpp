@@ -162,6 +162,8 @@ void FilterParams::validate() const {
   require(kidnap.cluster_xy_m > 0 && kidnap.cluster_theta_rad > 0,
           "kidnap cluster tolerances must be > 0");
   require(std::isfinite(kidnap.retest_margin_s), "kidnap retest_margin_s must be finite");
+  require(kidnap.view_jump_window_s >= 0 && std::isfinite(kidnap.view_jump_window_s),
+          "kidnap view_jump_window_s must be finite and >= 0");
   require(outlier.probability >= 0 && outlier.probability < 1,
           "outlier probability must be in [0, 1)");
   require(outlier.area_m2 > 0 && outlier.gate_mahalanobis_sq > 0,
@@ -511,7 +513,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         if (kp.retest_margin_s >= 0)
           pushBounded(recent_inconsistent_, implied(obs, slot), kMaxRecentInconsistent);
       }
-    } else {
+    } else if (endsLowRun(slot, obs.utime)) {
       endLowRun();
     }
     const std::optional<Pose2> evidence =
@@ -544,6 +546,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
+        view_jump_utime_ = std::numeric_limits<int64_t>::min();  // it did its work
         chooseRetestCandidates(*evidence);
         // The measurements that declared it stay in the relocalization's
         // window: they say where the robot is.
@@ -676,6 +679,15 @@ void ParticleFilter::endLowRun() {
   low_run_.clear();
 }
 
+void ParticleFilter::noteViewJump(int64_t t) { view_jump_utime_ = std::max(view_jump_utime_, t); }
+
+bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
+  const double window_s = params_.kidnap.view_jump_window_s;
+  if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return true;
+  const bool recent_jump = static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
+  return !(recent_jump && placed_utime_[slot] >= view_jump_utime_);
+}
+
 double ParticleFilter::noteUnused(const Observation& obs) {
   const int64_t slot = slotOf(obs.landmark_id);
   if (slot < 0 || !obs.relative.isFinite() || !obs.covariance.allFinite()) return 0;
@@ -685,7 +697,7 @@ double ParticleFilter::noteUnused(const Observation& obs) {
       agreementWith(static_cast<uint32_t>(slot), obs, r, normalizedLogWeights());
   if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
     record(static_cast<uint32_t>(slot)).consistent += 1;
-    endLowRun();
+    if (endsLowRun(static_cast<uint32_t>(slot), obs.utime)) endLowRun();
   }
   return agreement;
 }

@@ -143,6 +143,14 @@ struct KidnapParams {
   // of the relocalized estimate (docs/backend.md, "Landmarks placed before
   // the detection"). < 0: off.
   double retest_margin_s = 5.0;
+  // A front-end saw its view jump (noteViewJump: a frame shares almost
+  // nothing with the previous one although odometry says the robot barely
+  // moved: carried, kidnapped). For view_jump_window_s after it, the
+  // consistent measurements of landmarks placed since the jump do not end
+  // a run of inconsistent ones: they were placed from the pose the robot
+  // was thought to be at and agree with it by construction, so they say
+  // nothing of whether it is there. 0: view jumps are ignored.
+  double view_jump_window_s = 0.0;
 };
 
 struct FilterParams {
@@ -256,6 +264,8 @@ class ParticleFilter {
   // evidence. An inconsistent one does not extend the run. Returns the
   // agreement (0 for an unknown landmark).
   double noteUnused(const Observation& obs);
+  // A camera's view jumped at t (KidnapParams::view_jump_window_s).
+  void noteViewJump(int64_t t);
   // Systematic resampling, whatever the effective sample size. O(particles).
   void resample();
   // Starts every particle from the same known map (e.g. landmark poses saved
@@ -397,6 +407,10 @@ class ParticleFilter {
   // A consistent measurement ends the run of inconsistent ones: every
   // landmark in it was seen somewhere it is not.
   void endLowRun();
+  // Whether a consistent measurement of `slot` at t may end the run: not if
+  // the landmark was placed since a view jump less than
+  // view_jump_window_s before t.
+  bool endsLowRun(uint32_t slot, int64_t t) const;
   // The jump from the estimate to `to` under the drift covariance (KidnapParams).
   double driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const;
   void shiftParticles(const Pose2& shift);
@@ -416,6 +430,7 @@ class ParticleFilter {
 
   bool kidnapped_ = false;
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
+  int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
   // While kidnapped: the measurements of the last recover_window_s, from
   // those that declared it (at kidnap_declared_utime_) on.
   std::vector<Implied> reloc_run_;

@@ -27,6 +27,7 @@ const std::vector<ChannelNames::Field>& ChannelNames::fields() {
       {"appearance_hypotheses", &C::appearance_hypotheses},
       {"appearance_map", &C::appearance_map},
       {"appearance_event", &C::appearance_event},
+      {"view_jump", &C::view_jump},
   };
   return all;
 }

@@ -63,6 +63,7 @@ struct ChannelNames {
   std::string appearance_hypotheses;        // vslam.appearance_hypotheses_t
   std::string appearance_map;               // vslam.appearance_map_t
   std::string appearance_event;             // vslam.appearance_event_t
+  std::string view_jump;                    // vslam.view_jump_t (front-ends -> back-end)
 
   // Every field with its key in the robot file's `channels:` block.
   struct Field {

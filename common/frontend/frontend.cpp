@@ -10,6 +10,19 @@ namespace {
 
 constexpr size_t kOdometryHistory = 500;  // readings kept: 10 s at 50 Hz
 
+// The continuity test (FrontendParams::view_jump_max_matched_share). The
+// previous frame's strongest features are looked for in the next one with a
+// strict ratio test, so that few chance matches pass between unrelated
+// views; it is not tested across a gap in the frames, with too few features
+// to tell (a plain wall, a dark room), or where odometry says the robot
+// moved or turned enough to see something else.
+constexpr int kContinuityFeatures = 200;
+constexpr int kContinuityMinFeatures = 40;
+constexpr double kContinuityRatio = 0.6;
+constexpr double kContinuityMaxGapS = 1.0;
+constexpr double kContinuityMaxTravelM = 0.3;
+constexpr double kContinuityMaxTurnRad = 0.5;
+
 double msSince(Utime start) { return 1e-3 * static_cast<double>(monotonicUtime() - start); }
 
 }  // namespace
@@ -32,7 +45,8 @@ Frontend::Frontend(FrontendParams params)
       creator_(params_.camera, params_.creation),
       measurement_camera_(MeasurementCamera::fromConfig(params_.camera)),
       index_(params_.recognition),
-      refining_matcher_(MatchParams{params_.recognition.ratio, false}) {
+      refining_matcher_(MatchParams{params_.recognition.ratio, false}),
+      continuity_matcher_(MatchParams{kContinuityRatio, false}) {
   params_.refinement.validate();
 }
 
@@ -113,9 +127,51 @@ FrameResult Frontend::track(Utime t, Features features) {
     refineDue(t, view.odometry, &result);
   }
   view.features = std::move(features);
+  if (params_.view_jump_max_matched_share > 0) {
+    testContinuity(t, view, result.have_odometry, &result);
+  }
   if (result.have_odometry) considerCreation(std::move(view), &result);
   result.creation_ms = msSince(t0);
   return result;
+}
+
+void Frontend::testContinuity(Utime t, const View& view, bool have_odometry, FrameResult* result) {
+  const Features& f = view.features;
+  if (previous_ && previous_->descriptors.rows >= kContinuityMinFeatures &&
+      static_cast<int>(f.size()) >= kContinuityMinFeatures &&
+      toSeconds(t - previous_->utime) <= kContinuityMaxGapS) {
+    bool near = true;
+    if (have_odometry && previous_->have_odometry) {
+      const Pose2 d = previous_->odometry.between(view.odometry);
+      near = std::hypot(d.x, d.y) <= kContinuityMaxTravelM &&
+             std::abs(d.theta) <= kContinuityMaxTurnRad;
+    }
+    if (near) {
+      std::vector<cv::DMatch> matches;
+      continuity_matcher_.match(previous_->descriptors, f.descriptors, &matches);
+      result->matched_share =
+          static_cast<double>(matches.size()) / static_cast<double>(previous_->descriptors.rows);
+      result->previous_utime = previous_->utime;
+      result->view_jumped = result->matched_share < params_.view_jump_max_matched_share;
+    }
+  }
+  // Keep this frame's strongest features for the next.
+  std::vector<int> order(f.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  const size_t keep = std::min(order.size(), static_cast<size_t>(kContinuityFeatures));
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep), order.end(),
+                    [&](int a, int b) {
+                      return f.keypoints[static_cast<size_t>(a)].response >
+                             f.keypoints[static_cast<size_t>(b)].response;
+                    });
+  PreviousFrame p;
+  p.utime = t;
+  p.have_odometry = have_odometry;
+  p.odometry = view.odometry;
+  p.descriptors.create(static_cast<int>(keep), 128, CV_32F);
+  for (size_t i = 0; i < keep; ++i)
+    f.descriptors.row(order[i]).copyTo(p.descriptors.row(static_cast<int>(i)));
+  previous_ = std::move(p);
 }
 
 void Frontend::considerCreation(View view, FrameResult* result) {

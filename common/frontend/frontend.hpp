@@ -53,6 +53,11 @@ struct FrontendParams {
   // (landmark_refinement.hpp) and FrameResult::refined hands it on again.
   // 0: no refinement.
   double refine_distance_m = 0.0;
+  // The view jumped (the robot was carried, or kidnapped): a frame finds
+  // again fewer than this share of the previous frame's strongest features
+  // although odometry says the robot barely moved between them. 0: not
+  // tested.
+  double view_jump_max_matched_share = 0.0;
   SiftParams sift;
   CreationParams creation;
   RefinementParams refinement;
@@ -96,6 +101,13 @@ struct FrameResult {
   };
   std::optional<Refined> refined;
   std::optional<std::string> creation_failure;  // why the window's three views made no landmark
+  // This frame against the previous one (view_jump_max_matched_share > 0):
+  // the share of the previous frame's strongest features found again, -1
+  // if not tested (a gap, too few features, the robot moved too far), and
+  // whether the view jumped.
+  double matched_share = -1;
+  bool view_jumped = false;
+  Utime previous_utime = 0;
   double recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
 };
 
@@ -138,6 +150,9 @@ class Frontend {
   };
 
   void considerCreation(View view, FrameResult* result);
+  // Compares the frame with the previous one (FrameResult::matched_share,
+  // view_jumped) and keeps its strongest features for the next.
+  void testContinuity(Utime t, const View& view, bool have_odometry, FrameResult* result);
   // Finds each refining landmark in the frame (ratio test against its
   // descriptors, then its pose measurement) and keeps the view: if far
   // enough from its last one, else aside as the newest (the refinement uses
@@ -157,6 +172,15 @@ class Frontend {
   std::deque<View> views_;                        // the creation window
   std::vector<RefiningLandmark> refining_;        // made, refinement not due yet
   RatioMatcher refining_matcher_;
+  // The previous frame's strongest features, for testContinuity.
+  struct PreviousFrame {
+    Utime utime = 0;
+    bool have_odometry = false;
+    Pose2 odometry;
+    cv::Mat descriptors;
+  };
+  std::optional<PreviousFrame> previous_;
+  RatioMatcher continuity_matcher_;
 };
 
 }  // namespace vslam::frontend

@@ -115,7 +115,11 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("retest_margin_s", &K::retest_margin_s, InRange{-1, 600}, "s",
            "after a relocalization, landmarks placed from this long before the first "
            "measurement of where the robot was moved to are re-tested: kept, or moved with the "
-           "relocalization, as their next measurement agrees; < 0: off");
+           "relocalization, as their next measurement agrees; < 0: off")
+      .add("view_jump_window_s", &K::view_jump_window_s, InRange{0, 600}, "s",
+           "for this long after a front-end's view jumped (carried, kidnapped), landmarks placed "
+           "since the jump do not end a run of inconsistent measurements (they agree with the "
+           "pose the robot was thought to be at by construction); 0: view jumps are ignored");
   return t;
 }
 
@@ -364,6 +368,7 @@ BackendStageParams BackendStageParams::load(const config::ConfigNode& node,
   p.landmark_update_channel = robot.channels.landmark_update;
   p.landmark_proposal_channel = robot.channels.landmark_proposal;
   p.measurement_channel = robot.channels.visual_measurement;
+  p.view_jump_channel = robot.channels.view_jump;
   p.filtered_channel = robot.channels.visual_measurement_filtered;
   p.pose_channel = robot.channels.pose_estimate;
   p.map_channel = robot.channels.map;
@@ -459,6 +464,10 @@ void BackendStage::start(bus::StageContext& ctx) {
   ctx.bus.subscribe<visual_measurement_t>(
       params_.measurement_channel, [this](const visual_measurement_t& m) { onMeasurement(m); },
       100);
+  if (params_.backend.filter.kidnap.view_jump_window_s > 0) {
+    ctx.bus.subscribe<vslam::view_jump_t>(params_.view_jump_channel,
+                                          [this](const vslam::view_jump_t& m) { onViewJump(m); });
+  }
   if (params_.backend.map_correction.enabled) {
     // Map correction needs each landmark's creation time: from the landmark
     // DB's announcements, or, from front-ends that run without a DB, from
@@ -479,6 +488,17 @@ void BackendStage::onLandmarkUpdate(const vslam::landmark_update_t& msg) {
                          (msg.op == U::OP_PROPOSED && msg.landmark.landmark_id >= 0);
   if (!announces || msg.landmark.landmark_id < 0) return;
   backend_.addLandmarkCreation(msg.landmark.landmark_id, msg.landmark.created_utime);
+}
+
+void BackendStage::onViewJump(const vslam::view_jump_t& msg) {
+  if (msg.utime <= 0 || !std::isfinite(msg.matched_share)) {
+    ctx_->bus.reportMalformed(params_.view_jump_channel, "view jump of camera '" + msg.camera +
+                                                             "' at " + std::to_string(msg.utime) +
+                                                             " has no valid time or share");
+    return;
+  }
+  backend_.filter().noteViewJump(msg.utime);
+  ++view_jumps_;
 }
 
 template <class... Args>
@@ -685,6 +705,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
         std::string("measurements_") + backend::metricName(static_cast<MeasurementStatus>(s)),
         static_cast<double>(c.status[s]), "count");
   }
+  report.add("view_jumps", static_cast<double>(view_jumps_), "count");
   report.add("measurements_used",
              static_cast<double>(c.use[static_cast<int>(MeasurementUse::kUsed)]), "count");
   report.add("measurements_unused_landmark_id",

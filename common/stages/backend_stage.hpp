@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
+#include <vslam/view_jump_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "backend/backend.hpp"
@@ -35,6 +36,7 @@ struct BackendStageParams {
   backend::BackendParams backend;
   std::string odometry_channel;
   std::string measurement_channel;
+  std::string view_jump_channel;          // front-ends' view jumps, for the kidnap test
   std::string landmark_update_channel;    // creation times for map correction
   std::string landmark_proposal_channel;  // ...from front-ends without a landmark DB
   std::string filtered_channel;
@@ -86,6 +88,7 @@ class BackendStage final : public bus::Stage {
  private:
   void onOdometry(const vslam::odometry_t& msg);
   void onMeasurement(const vslam::visual_measurement_t& msg);
+  void onViewJump(const vslam::view_jump_t& msg);
   void onLandmarkUpdate(const vslam::landmark_update_t& msg);
   void publishPose(const vslam::odometry_t& msg);
   // Logs the estimate at every 100 new pairs (called with the health, once a period).
@@ -113,6 +116,7 @@ class BackendStage final : public bus::Stage {
   double period_update_ms_ = 0;
   double period_max_update_ms_ = 0;
   int calibration_logged_pairs_ = 0;
+  int64_t view_jumps_ = 0;  // front-ends' view jumps received
 };
 
 void registerBackend(bus::StageRegistry& registry);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 #include <vslam/landmark_request_t.hpp>
+#include <vslam/view_jump_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/checked_decode.hpp"
@@ -73,6 +74,14 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             "a new landmark is refined with the frames that see it until the robot has driven "
             "this far from its first view (longer baselines than its three views), and its "
             "refined points sent to the landmark DB (OP_REVISED); 0: not refined")
+        .add(
+            "view_jump_max_matched_share",
+            [](auto& p) -> auto& { return p.frontend.view_jump_max_matched_share; }, InRange{0, 1},
+            "",
+            "the view jumped (carried, kidnapped) when a frame finds again fewer than this share "
+            "of the previous frame's strongest features although odometry says the robot barely "
+            "moved; published on the view-jump channel for the back-end's kidnap test; 0: not "
+            "tested")
         .add(
             "max_measurements_per_frame",
             [](auto& p) -> auto& { return p.frontend.max_measurements_per_frame; }, InRange{1, 100},
@@ -146,6 +155,7 @@ FrontendStageParams FrontendStageParams::load(const config::ConfigNode& node,
   }
   p.odometry_channel = robot.channels.odometry;
   p.measurement_channel = robot.channels.visual_measurement;
+  p.view_jump_channel = robot.channels.view_jump;
   p.proposal_channel = robot.channels.landmark_proposal;
   p.update_channel = robot.channels.landmark_update;
   p.summary_channel = robot.channels.landmark_summary;
@@ -426,6 +436,18 @@ void FrontendStage::process(vslam::image_t& msg) {
   const bool gained = features.gain > 1.0;
 
   const frontend::FrameResult result = frontend_.track(msg.utime, std::move(features));
+  if (result.view_jumped) {
+    // Before the frame's measurements: the back-end knows of the jump when they come.
+    vslam::view_jump_t jump{};
+    jump.utime = msg.utime;
+    jump.previous_utime = result.previous_utime;
+    jump.camera = camera().name;
+    jump.matched_share = result.matched_share;
+    jump.max_matched_share = params_.frontend.view_jump_max_matched_share;
+    ctx_->bus.publish(params_.view_jump_channel, jump);
+    log::info("view jumped at ", msg.utime, ": ", result.matched_share * 100,
+              " % of the previous frame's strongest features found again");
+  }
   for (const auto& [landmark_id, pm] : result.measurements) {
     vslam::visual_measurement_t out{};
     out.utime = msg.utime;

@@ -56,6 +56,7 @@ struct FrontendStageParams {
   int camera_number = 1;              // 1-based index of the camera in the robot file
   std::string odometry_channel;
   std::string measurement_channel;
+  std::string view_jump_channel;
   std::string proposal_channel;
   std::string update_channel, summary_channel, request_channel;
   bool use_landmark_db = true;      // landmark_db: required (true) | none
@@ -85,8 +86,11 @@ class FrontendStage final : public bus::Stage {
   void collectHealth(bus::HealthReport& report) override;
   void prefetch(const std::string& channel, const void* data, size_t size) override;
   std::vector<std::string> outputChannels() const override {
-    if (!params_.use_landmark_db) return {params_.measurement_channel, params_.proposal_channel};
-    return {params_.measurement_channel, params_.proposal_channel, params_.request_channel};
+    if (!params_.use_landmark_db) {
+      return {params_.measurement_channel, params_.view_jump_channel, params_.proposal_channel};
+    }
+    return {params_.measurement_channel, params_.view_jump_channel, params_.proposal_channel,
+            params_.request_channel};
   }
 
  private:

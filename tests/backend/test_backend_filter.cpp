@@ -1133,6 +1133,52 @@ TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
   EXPECT_EQ(kidnaps, 1);
 }
 
+TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
+  // Landmarks 1-3 are mapped from the start pose; at 1 s the robot is
+  // carried 3 m back, its odometry still, and a front-end sees its view
+  // jump. It makes landmark 4 there, placed from where it is thought to be:
+  // its measurements agree with the particles by construction. Landmarks 1
+  // and 2 show where the robot is, between measurements of landmark 4.
+  // Without the view jump each of landmark 4's consistent measurements ends
+  // the run of inconsistent ones and no kidnapping is declared; with it,
+  // landmark 4 (placed since the jump) ends none, and the kidnapping is
+  // declared and relocalized. Landmark 3, placed before the jump, still
+  // ends runs: a look-alike seen while the robot also sees its old
+  // surroundings is no kidnapping, jump or not.
+  const auto at = observationAt;
+  const int64_t jump_utime = at(0, {}, 1.0).utime;
+  auto run = [&](bool jumped, int64_t consistent_landmark, int* kidnaps, bool* recovered) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    if (jumped) pf->noteViewJump(jump_utime);
+    EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 1.0)).kind, UpdateKind::kInitialized);
+    const Pose2 consistent = consistent_landmark == 4 ? Pose2{0.5, 0, 0} : Pose2{0, -1, 0};
+    *kidnaps = 0;
+    *recovered = false;
+    double s = 1.5;
+    for (int k = 0; k < 12 && !*recovered; ++k, s += 0.5) {
+      const UpdateReport r = pf->update(seenFromThreeMetresBack(k, s));
+      *kidnaps += r.kidnap_detected;
+      *recovered = *recovered || r.recovered;
+      if (!pf->kidnapped()) pf->update(at(consistent_landmark, consistent, s + 0.25));
+    }
+    return pf;
+  };
+  int kidnaps = 0;
+  bool recovered = false;
+  const auto pf = run(true, 4, &kidnaps, &recovered);
+  EXPECT_EQ(kidnaps, 1);
+  EXPECT_TRUE(recovered);
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+
+  run(false, 4, &kidnaps, &recovered);  // the control: no view jump
+  EXPECT_EQ(kidnaps, 0);
+  run(true, 3, &kidnaps, &recovered);  // a landmark placed before the jump
+  EXPECT_EQ(kidnaps, 0);
+}
+
 TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocalization) {
   // The robot is carried 3 m back; landmarks 1 and 2 show it there for 2.5 s
   // and declare a kidnapping. A third landmark that agrees confirms the

@@ -19,6 +19,7 @@
 #include <vslam/odometry_t.hpp>
 #include <vslam/particle_set_t.hpp>
 #include <vslam/pose_estimate_t.hpp>
+#include <vslam/view_jump_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
@@ -808,5 +809,51 @@ TEST(BackendStage, ReportsOdometryThatHasGoneQuiet) {
   EXPECT_GE(warned, 3);
   EXPECT_GE(last_age, 0.0);
   EXPECT_LT(last_age, 1.0);  // back to normal once odometry resumes
+  fs::remove_all(dir);
+}
+
+// A front-end's view jump reaches the filter (health counts it); one without
+// a valid time or share is counted malformed and changes nothing.
+TEST(BackendStage, TakesViewJumpsAndRefusesMalformedOnes) {
+  const fs::path dir = vslam::test::scratchDir("backend_stage_view_jumps");
+  const fs::path source(VSLAM_SOURCE_DIR);
+  const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
+  const int64_t t0 = 1767225600LL * kMicrosPerSecond;
+  auto seconds = [&](double s) { return t0 + static_cast<int64_t>(s * 1e6); };
+  {
+    bus::LogWriter log(dir / "in.lcmlog");
+    int64_t seq = 0;
+    for (double s = 0; s < 4.0; s += 0.02) {
+      vslam::odometry_t o{};
+      o.utime = seconds(s);
+      o.seq = seq++;
+      log.writeMessage(o.utime, "ODOMETRY", o);
+    }
+    auto jump = [&](double s, int64_t utime, double share) {
+      vslam::view_jump_t j{};
+      j.utime = utime;
+      j.previous_utime = utime - 100000;
+      j.camera = "forward";
+      j.matched_share = share;
+      j.max_matched_share = 0.05;
+      log.writeMessage(seconds(s), "VIEW_JUMP", j);
+    };
+    jump(1.0, seconds(1.0), 0.01);
+    jump(1.5, 0, 0.01);
+    jump(2.0, seconds(2.0), std::numeric_limits<double>::quiet_NaN());
+  }
+  replayBackend(stack, dir);
+  double view_jumps = -1;
+  int64_t malformed = 0;
+  for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+    if (e.channel != "HEALTH") continue;
+    const auto h = decode<vslam::health_t>(e);
+    if (h.instance != "backend") continue;
+    malformed = std::max(malformed, h.messages_malformed);
+    for (const auto& m : h.metrics)
+      if (m.name == "view_jumps") view_jumps = m.value;
+  }
+  EXPECT_EQ(view_jumps, 1.0);
+  EXPECT_EQ(malformed, 2);
   fs::remove_all(dir);
 }

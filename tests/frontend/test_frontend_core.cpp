@@ -208,5 +208,57 @@ TEST_F(FrontendCore, ANewLandmarkIsRefinedFromLaterViews) {
   for (int k = 41; k <= 44; ++k) expectMeasuresTheTruth(step(frontend, k), k, 7);
 }
 
+// View jumps: driving on, each frame finds most of the previous frame's
+// strongest features again; put down elsewhere (the same odometry, a view
+// of the apartment from across the room) it finds next to none, and the
+// view jumped. Where odometry says the robot moved far, or the test is off,
+// there is no verdict.
+TEST_F(FrontendCore, AViewThatJumpsWhileOdometryStandsStillIsAJump) {
+  params_.view_jump_max_matched_share = 0.05;
+  Frontend frontend(params_);
+  for (int k = 0; k <= 5; ++k) {
+    const FrameResult r = step(frontend, k);
+    EXPECT_FALSE(r.view_jumped) << "frame " << k;
+    if (k == 0) {
+      EXPECT_LT(r.matched_share, 0) << "no previous frame";
+    } else {
+      EXPECT_GT(r.matched_share, 0.3) << "frame " << k << ": driving on, the view goes on";
+      EXPECT_EQ(r.previous_utime, timeAt(k - 1));
+    }
+  }
+  // Carried: odometry 2 cm on, the camera 3 m away facing the other way.
+  const auto carried = [&](Frontend& f, int k, const Pose2& odometry) {
+    EXPECT_EQ(f.addOdometry(timeAt(k), odometry), Frontend::OdometryVerdict::kAdded);
+    cv::Mat image;
+    const Pose2 elsewhere = poseAt(0).compose(Pose2{3.0, 0.0, M_PI});
+    renderer_->render(isometryFromPose2(elsewhere) * params_.camera.robot_T_camera, {}, {}, false,
+                      image);
+    Features features;
+    f.extract(image, &features);
+    EXPECT_GE(features.size(), 40u) << "too few features to tell";
+    return f.track(timeAt(k), std::move(features));
+  };
+  const FrameResult jumped = carried(frontend, 6, Pose2{0.12, 0.0, 0.0});
+  EXPECT_TRUE(jumped.view_jumped);
+  EXPECT_GE(jumped.matched_share, 0.0);
+  EXPECT_LT(jumped.matched_share, 0.05);
+  EXPECT_EQ(jumped.previous_utime, timeAt(5));
+
+  // The same view change after a metre of odometry: the robot may have
+  // driven to see it.
+  Frontend far(params_);
+  step(far, 0);
+  const FrameResult drove = carried(far, 1, Pose2{1.0, 0.0, 0.0});
+  EXPECT_FALSE(drove.view_jumped);
+  EXPECT_LT(drove.matched_share, 0);
+
+  params_.view_jump_max_matched_share = 0.0;
+  Frontend off(params_);
+  step(off, 0);
+  const FrameResult untested = carried(off, 1, Pose2{0.02, 0.0, 0.0});
+  EXPECT_FALSE(untested.view_jumped);
+  EXPECT_LT(untested.matched_share, 0);
+}
+
 }  // namespace
 }  // namespace vslam::frontend

@@ -31,6 +31,7 @@
 #include <vslam/particle_set_t.hpp>
 #include <vslam/particle_t.hpp>
 #include <vslam/pose_estimate_t.hpp>
+#include <vslam/view_jump_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 namespace vslam::transport_test {
@@ -44,7 +45,7 @@ namespace vslam::transport_test {
       vslam::particle_t, vslam::particle_set_t, vslam::appearance_state_t,                         \
       vslam::appearance_link_t, vslam::appearance_hypothesis_t, vslam::appearance_hypotheses_t,    \
       vslam::appearance_map_t, vslam::appearance_event_t, vslam::health_metric_t, vslam::health_t, \
-      vslam::ground_truth_pose_t
+      vslam::ground_truth_pose_t, vslam::view_jump_t
 
 template <class... Ts>
 struct TypeList {};
@@ -361,6 +362,14 @@ inline void fill(vslam::ground_truth_pose_t& m, int s) {
   m.y = dv(s, 1);
   m.z = 0.0;
   m.theta = 2.5 - 0.01 * s;
+}
+
+inline void fill(vslam::view_jump_t& m, int s) {
+  m.utime = tv(s, 19);
+  m.previous_utime = tv(s, 19) - 100000;
+  m.camera = sv("forward", s);
+  m.matched_share = 0.01 * (s % 5);
+  m.max_matched_share = 0.05;
 }
 
 template <class T>

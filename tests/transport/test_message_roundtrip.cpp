@@ -169,6 +169,12 @@ void expectKeyFields(const vslam::ground_truth_pose_t& a, const vslam::ground_tr
   EXPECT_EQ(a.x, b.x);
   EXPECT_EQ(a.theta, b.theta);
 }
+void expectKeyFields(const vslam::view_jump_t& a, const vslam::view_jump_t& b) {
+  EXPECT_EQ(a.utime, b.utime);
+  EXPECT_EQ(a.previous_utime, b.previous_utime);
+  EXPECT_EQ(a.camera, b.camera);
+  EXPECT_EQ(a.matched_share, b.matched_share);
+}
 
 // ---- typed tests over every type -------------------------------------------------
 
