@@ -225,6 +225,16 @@ double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histog
   return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
 }
 
+double AppearanceSlam::bestObservationLog(int64_t state_id, const std::vector<Histogram>& z,
+                                          bool* turned) {
+  const double as_seen = observationLog(state_id, z);
+  *turned = false;
+  if (!can_turn_) return as_seen;
+  const double turned_around = observationLog(state_id, z, true);
+  *turned = turned_around > as_seen;
+  return *turned ? turned_around : as_seen;
+}
+
 void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>& cameras) {
   if (initialized() || !states_.empty()) {
     throw std::logic_error("loadMap: the map must be loaded before the first snapshot");
@@ -442,10 +452,9 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   // last state than a new place would is not the next view along a
   // corridor, and a carried robot is often put down beside the states it
   // made just before.
-  double last_state_log = observationLog(h.node->state_id, z.histograms);
-  if (can_turn_)
-    last_state_log = std::max(last_state_log, observationLog(h.node->state_id, z.histograms, true));
-  const bool view_jumped = last_state_log <= logNew();
+  bool last_turned = false;
+  const bool view_jumped =
+      bestObservationLog(h.node->state_id, z.histograms, &last_turned) <= logNew();
   ++generation_;
   for (const int64_t s : reachable) seen_[static_cast<size_t>(s)] = generation_;
   struct Match {
@@ -464,15 +473,8 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
     seen_[s] = generation_;
     if (recent) continue;
     // As it was seen or turned around, whichever looks more like the snapshot.
-    double obs = observationLog(n->state_id, z.histograms);
     bool turned = false;
-    if (can_turn_) {
-      const double obs_turned = observationLog(n->state_id, z.histograms, true);
-      if (obs_turned > obs) {
-        obs = obs_turned;
-        turned = true;
-      }
-    }
+    const double obs = bestObservationLog(n->state_id, z.histograms, &turned);
     // Only a state that looks clearly more like the snapshot than a new place would.
     if (obs > log_needed) matches.push_back({obs, n->state_id, turned});
   }

@@ -330,6 +330,8 @@ class AppearanceSlam {
   // log P(z | x): the robot in the state as its snapshot was taken, or
   // turned around (each camera compared with the one that then faces its way).
   double observationLog(int64_t state_id, const std::vector<Histogram>& z, bool turned = false);
+  // The larger of the two (turned only with turned cameras); *turned says which.
+  double bestObservationLog(int64_t state_id, const std::vector<Histogram>& z, bool* turned);
   double turnedDistance(const std::vector<Histogram>& z, const std::vector<Histogram>& state) const;
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
               std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);

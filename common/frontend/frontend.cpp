@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "util/log.hpp"
 
@@ -157,7 +158,7 @@ void Frontend::testContinuity(Utime t, const View& view, bool have_odometry, Fra
   }
   // Keep this frame's strongest features for the next.
   std::vector<int> order(f.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::iota(order.begin(), order.end(), 0);
   const size_t keep = std::min(order.size(), static_cast<size_t>(kContinuityFeatures));
   std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep), order.end(),
                     [&](int a, int b) {
