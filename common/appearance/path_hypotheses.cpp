@@ -421,7 +421,12 @@ void AppearanceSlam::expand(const Hypothesis& h, const Link& action, const Snaps
       const double m2 = v.dot(innovation_inv * v);
       if (m2 > params_.gate) continue;
       ++*candidates;
-      if (reachable) reachable->push_back(state);
+      // Left to the trace, not seeded: a state the trace reaches with more
+      // weight than a seed's prior would give it. (After a carry the trace
+      // can still reach a state near the put-down place, but only as an
+      // unlikely drive: there the seed is the likelier explanation.)
+      if (reachable && log_belief - 0.5 * m2 >= std::log(params_.relocalization_prior))
+        reachable->push_back(state);
       // Where the robot is in the state: the trace drawn toward the state's pose.
       const Eigen::Vector3d offset = gain_complement * v;
       Eigen::Matrix3d offset_cov = gain_complement * trace_cov_[s];
@@ -444,14 +449,12 @@ Eigen::Matrix3d AppearanceSlam::placeCovariance() const {
 void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
                                          const std::vector<int64_t>& reachable,
                                          std::vector<Child>* children) {
-  // The states of h's map, but for those its trace reaches and those of its
-  // last relocalization_recent_visits visits: over a few links the trace is
-  // reliable, and it alone says whether the robot is back (in a corridor the
-  // state a metre back looks like the snapshot, and is not where the robot
-  // is). Unless the view jumped: a snapshot that looks no more like h's
-  // last state than a new place would is not the next view along a
-  // corridor, and a carried robot is often put down beside the states it
-  // made just before.
+  // The states of h's map, but for those its trace reaches likelier than a
+  // seed's prior and those of its last relocalization_recent_visits visits: over a few links the
+  // trace is reliable, and it alone says whether the robot is back (in a corridor the state a metre
+  // back looks like the snapshot, and is not where the robot is). Unless the view jumped: a
+  // snapshot that looks no more like h's last state than a new place would is not the next view
+  // along a corridor, and a carried robot is often put down beside the states it made just before.
   bool last_turned = false;
   const bool view_jumped =
       bestObservationLog(h.node->state_id, z.histograms, &last_turned) <= logNew();
@@ -513,7 +516,7 @@ StepResult AppearanceSlam::step(const Pose2& action, const Snapshot& z) {
   link.covariance = action_model_.covariance(action);
   std::vector<Child> children;
   int candidates = 0;
-  std::vector<int64_t> reachable;  // by the most believed hypothesis' trace
+  std::vector<int64_t> reachable;  // likely by the most believed hypothesis' trace
   for (size_t i = 0; i < hypotheses_.size(); ++i) {
     expand(hypotheses_[i], link, z, id, &children, &candidates, i == 0 ? &reachable : nullptr);
   }

@@ -436,6 +436,29 @@ TEST(RelocalizationSeeds, ACarriedRobotRelocalizesBesideTheStatesItJustMade) {
   EXPECT_LE(first_correct, 1) << "re-localized only at an older state";
 }
 
+// Carried to place FROM at the end of the lap (odometry: on to place 0). The
+// trace from the states' first visits, through the whole lap, still reaches
+// a place a metre or two from place 0, but only as an unlikely drive
+// (P(x | p, u) = exp(-m^2 / 2) below the seeds' prior): such a state is seeded
+// as well, and the robot is back where it was put down, not only once the
+// trace brings it to where odometry says it is.
+TEST(RelocalizationSeeds, AStateTheTraceReachesOnlyUnlikelyIsSeededToo) {
+  for (const int from : {1, 2}) {
+    AppearanceSlam slam(seedingParams(), 1, kBins);
+    slam.setActionModel(model());
+    int first_correct = -1;
+    lapThenCarried(slam, from, 3, {}, [&](int k, int place, const StepResult& r) {
+      const bool correct = !r.best().is_new_state && r.best().state_id == place;
+      if (correct && first_correct < 0) first_correct = k;
+      if (!r.best().is_new_state) {
+        EXPECT_EQ(r.best().state_id, place) << "a wrong revisit, step " << k;
+      }
+    });
+    EXPECT_GE(first_correct, 0) << "never re-localized, carried to " << from;
+    EXPECT_LE(first_correct, 1) << "re-localized late, carried to " << from;
+  }
+}
+
 // Along a corridor whose views all look alike, each snapshot looks like the
 // states made just before, a metre back: the view did not jump, so those
 // states are not seeded and the robot is somewhere new at every step.
