@@ -165,18 +165,21 @@ Pose2 Backend::estimateAt(const Pose2& then) const {
 
 void Backend::joinOrBreakAfterKidnap() {
   // Was it a kidnapping? The filter cannot tell one from a loop closure
-  // after a long drift (paper 6.2); the size of the jump can. If the pose
-  // it relocalized to is far from where the odometry carried the graph's
-  // newest node, the robot was moved: no odometry edge may join the nodes
-  // before and after. Otherwise it was a loop closure, the most valuable
-  // constraint the graph gets.
+  // after a long drift (paper 6.2); a view jump can (robotWasMoved), and so
+  // can the size of the jump. If the robot was moved, or the pose it
+  // relocalized to is far from where the odometry carried the graph's
+  // newest node, no odometry edge may join the nodes before and after.
+  // Otherwise it was a loop closure, the most valuable constraint the graph
+  // gets. (Tuning home 30: a carry of 1.5 m, relocalized 1.44 m from the
+  // odometry's pose, was joined, and the graph pulled the estimate back.)
   if (newest_graph_node_ < 0) return;
   const HistoryEntry& now = history_.back();
   const Pose2 predicted =
       graph_->nodePose(newest_graph_node_)
           .compose(graph_->nodeOdometry(newest_graph_node_).pose.between(now.reading.pose));
   const Pose2 relocalized = filter_.estimate().mean;
-  const bool moved = std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y) >
+  const bool moved = filter_.robotWasMoved() ||
+                     std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y) >
                          params_.map_correction.kidnap_jump_m ||
                      std::abs(wrapAngle(relocalized.theta - predicted.theta)) >
                          params_.map_correction.kidnap_jump_rad;
@@ -365,7 +368,18 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
                  filter_.outlierFraction(obs) <= params_.map_correction.max_outlier_fraction);
     return finish(MeasurementUse::kRetired);
   }
-  if (params_.landmark_min_interval_s > 0) {
+  // While the filter relocalizes a robot known to have been moved
+  // (ParticleFilter::robotWasMoved), every measurement goes to it: it draws
+  // all its particles anew from each (uniform weights, so correlated ones
+  // count for nothing twice), and its recovery wants measurements of
+  // distinct landmarks in a row, which one per landmark per
+  // landmark_min_interval_s spreads over seconds (tuning home 49: 9.7 s
+  // from a carry's detection to its recovery, five filter updates). Not
+  // after a kidnapping that may be a repeated pattern's false alarm: its
+  // look-alikes, measured at camera rate, would confirm a wrong
+  // relocalization at once (tuning home 36).
+  const bool relocalizing_moved_robot = filter_.kidnapped() && filter_.robotWasMoved();
+  if (params_.landmark_min_interval_s > 0 && !relocalizing_moved_robot) {
     const auto last = last_used_.find(m.landmark_id);
     const auto min_us = static_cast<int64_t>(params_.landmark_min_interval_s * 1e6);
     if (last != last_used_.end() && m.utime >= last->second && m.utime - last->second < min_us) {

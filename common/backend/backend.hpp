@@ -55,7 +55,8 @@ struct MapCorrectionParams {
   // After a kidnapping, a relocalized pose this far from where the odometry
   // carried the graph's newest node means the robot was moved (the graph's
   // odometry chain is broken there); nearer, it was a loop closure after a
-  // long drift, which the filter cannot tell from a kidnapping.
+  // long drift, which the filter cannot tell from a kidnapping, unless a
+  // view jump came with it (ParticleFilter::robotWasMoved).
   double kidnap_jump_m = 1.5;
   double kidnap_jump_rad = 30 * M_PI / 180;
   // Odometry kept to place a landmark's creation node: the front-end

@@ -546,6 +546,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
+        robot_was_moved_ = recentViewJump(obs.utime);
         view_jump_utime_ = std::numeric_limits<int64_t>::min();  // it did its work
         chooseRetestCandidates(*evidence);
         // The measurements that declared it stay in the relocalization's
@@ -576,6 +577,16 @@ bool ParticleFilter::cancelKidnapping(uint32_t slot, const Observation& obs,
   const KidnapParams& kp = params_.kidnap;
   if (kp.cancel_count <= 0 || before_kidnap_.empty() ||
       before_kidnap_.front().map.find(slot) == nullptr)
+    return false;
+  // The robot was moved (a view jump came with the kidnapping) and the
+  // landmark was placed since the kidnapping began (a re-test candidate):
+  // from the pose the robot was thought to be at, so it agrees with that
+  // pose by construction and says nothing of whether the robot is there.
+  // (After a false alarm such a landmark is what ends it: it was placed
+  // where the robot is. Tuning home 41: two measurements of one, made 2 s
+  // before the detection, cancelled a carry's kidnapping.)
+  if (robot_was_moved_ && std::find(retest_candidates_.begin(), retest_candidates_.end(), slot) !=
+                              retest_candidates_.end())
     return false;
   const double agreement =
       agreementWith(before_kidnap_, slot, obs, r, normalizedLogWeightsOf(before_kidnap_), nullptr);
@@ -679,13 +690,19 @@ void ParticleFilter::endLowRun() {
   low_run_.clear();
 }
 
-void ParticleFilter::noteViewJump(int64_t t) { view_jump_utime_ = std::max(view_jump_utime_, t); }
+void ParticleFilter::noteViewJump(int64_t t) {
+  view_jump_utime_ = std::max(view_jump_utime_, t);
+  if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) robot_was_moved_ = true;
+}
+
+bool ParticleFilter::recentViewJump(int64_t t) const {
+  const double window_s = params_.kidnap.view_jump_window_s;
+  if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return false;
+  return static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
+}
 
 bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
-  const double window_s = params_.kidnap.view_jump_window_s;
-  if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return true;
-  const bool recent_jump = static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
-  return !(recent_jump && placed_utime_[slot] >= view_jump_utime_);
+  return !(recentViewJump(t) && placed_utime_[slot] >= view_jump_utime_);
 }
 
 double ParticleFilter::noteUnused(const Observation& obs) {
@@ -798,7 +815,8 @@ void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;
   kidnap_declared_utime_ = std::numeric_limits<int64_t>::min();  // no measurement declared it
-  forgetBeforeKidnap();                                          // no hypothesis to go back to
+  robot_was_moved_ = true;
+  forgetBeforeKidnap();  // no hypothesis to go back to
   low_run_.clear();
   reloc_run_.clear();
   recover_count_ = 0;

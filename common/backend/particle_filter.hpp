@@ -295,6 +295,14 @@ class ParticleFilter {
   PoseEstimate estimate() const;
   double effectiveSampleSize() const;
   bool kidnapped() const { return kidnapped_; }
+  // The current (or last) kidnapping is known to be real, the robot moved:
+  // a front-end's view jumped within view_jump_window_s before it was
+  // declared or while it lasted, or the filter started kidnapped
+  // (startKidnapped: a start from an unknown pose). A repeated pattern's
+  // false alarm comes with no view jump, and neither does a loop closure
+  // after a long unobserved drift, which the kidnap test cannot tell from a
+  // short carry (paper 6.2).
+  bool robotWasMoved() const { return robot_was_moved_; }
   // Global relocalization (e.g. a saved map and an unknown start pose):
   // all-dual until the measurements confirm a pose.
   void startKidnapped();
@@ -411,6 +419,8 @@ class ParticleFilter {
   // the landmark was placed since a view jump less than
   // view_jump_window_s before t.
   bool endsLowRun(uint32_t slot, int64_t t) const;
+  // A view jump noted no more than view_jump_window_s before t (0: never).
+  bool recentViewJump(int64_t t) const;
   // The jump from the estimate to `to` under the drift covariance (KidnapParams).
   double driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const;
   void shiftParticles(const Pose2& shift);
@@ -431,6 +441,7 @@ class ParticleFilter {
   bool kidnapped_ = false;
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
+  bool robot_was_moved_ = false;                                   // robotWasMoved()
   // While kidnapped: the measurements of the last recover_window_s, from
   // those that declared it (at kidnap_declared_utime_) on.
   std::vector<Implied> reloc_run_;

@@ -1179,6 +1179,38 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   EXPECT_EQ(kidnaps, 0);
 }
 
+TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotCancelTheKidnapping) {
+  // Landmarks 1-3 are mapped at the start; at 10 s the robot is carried 3 m
+  // back, its odometry still. It makes landmark 4 there, placed from where
+  // it is thought to be, before landmarks 1 and 2 declare the kidnapping.
+  // Two measurements of landmark 4 then agree with the hypothesis the
+  // kidnapping replaced. Without a view jump that is how a false alarm ends
+  // (landmark 4 would be where it was placed): cancelled. With one, the
+  // robot was moved, landmark 4 agrees with the old pose by construction,
+  // and the kidnapping stands.
+  const auto at = observationAt;
+  for (const bool jumped : {false, true}) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});
+    if (jumped) pf->noteViewJump(at(0, {}, 10.0).utime);
+    EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 10.5)).kind, UpdateKind::kInitialized);
+    for (int k = 0; k < 8 && !pf->kidnapped(); ++k)
+      pf->update(seenFromThreeMetresBack(k, 11 + 0.5 * k));
+    ASSERT_TRUE(pf->kidnapped()) << (jumped ? "with" : "without") << " a view jump";
+    EXPECT_EQ(pf->robotWasMoved(), jumped);
+    bool cancelled = false;
+    for (const double t : {15.1, 15.2})
+      cancelled = cancelled || pf->update(at(4, {0.5, 0, 0}, t)).cancelled;
+    EXPECT_EQ(cancelled, !jumped) << (jumped ? "with" : "without") << " a view jump";
+    EXPECT_EQ(pf->kidnapped(), jumped);
+  }
+  // A start from an unknown pose: the robot was moved, whatever it sees.
+  ParticleFilter started(homeParams(50));
+  started.startKidnapped();
+  EXPECT_TRUE(started.robotWasMoved());
+}
+
 TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocalization) {
   // The robot is carried 3 m back; landmarks 1 and 2 show it there for 2.5 s
   // and declare a kidnapping. A third landmark that agrees confirms the

@@ -55,6 +55,16 @@ MeasurementInput circleMeasurement(int64_t id, int64_t landmark_seq, int64_t seq
   return m;
 }
 
+// A back-end driven along the circle of reading(), reading by reading.
+struct OnTheCircle {
+  explicit OnTheCircle(const BackendParams& p) : be(p) {}
+  void driveTo(int64_t last) {
+    for (; seq <= last; ++seq) be.addOdometry(reading(seq));
+  }
+  Backend be;
+  int64_t seq = 0;
+};
+
 }  // namespace
 
 // --- Pre-filter -----------------------------------------------------------------
@@ -313,6 +323,37 @@ TEST(BackendMeasurements, ThinnedToOnePerLandmarkPerInterval) {
   EXPECT_EQ(be.counters().use[static_cast<int>(MeasurementUse::kThinned)], 1);
 }
 
+TEST(BackendMeasurements, WhileRelocalizingAMovedRobotNoneAreThinned) {
+  // Landmarks 1 and 2 mapped on the circle; the filter starts again from an
+  // unknown pose (as a start in a saved map: the robot was moved). Until it
+  // relocalizes, every measurement goes to it, however soon after the last
+  // one of its landmark: two landmarks in a row confirm the pose within
+  // 0.1 s, where one per landmark per 2 s would take seconds. Relocalized,
+  // they are thinned again.
+  BackendParams p = params(50, 0.01);
+  p.landmark_min_interval_s = 2.0;
+  p.filter.kidnap.recover_landmarks = 2;
+  OnTheCircle c(p);
+  Backend& be = c.be;
+  c.driveTo(50);
+  be.addMeasurement(circleMeasurement(1, 0, 50));
+  be.addMeasurement(circleMeasurement(2, 25, 50));
+  be.filter().startKidnapped();
+  ASSERT_TRUE(be.filter().robotWasMoved());
+  bool recovered = false;
+  for (int64_t s = 60; s < 70 && !recovered; ++s) {
+    c.driveTo(s);
+    const MeasurementResult r =
+        be.addMeasurement(circleMeasurement(s % 2 ? 1 : 2, s % 2 ? 0 : 25, s));
+    EXPECT_EQ(r.use, MeasurementUse::kUsed) << "reading " << s;
+    recovered = r.update.recovered;
+  }
+  ASSERT_TRUE(recovered) << "not relocalized within 0.2 s";
+  EXPECT_FALSE(be.filter().kidnapped());
+  c.driveTo(c.seq + 1);
+  EXPECT_EQ(be.addMeasurement(circleMeasurement(1, 0, c.seq - 1)).use, MeasurementUse::kThinned);
+}
+
 TEST(BackendMeasurements, MeasurementCovarianceGrowsWithDistance) {
   // Two backends, one with growth; a far measurement of a landmark whose
   // particles disagree with it by 20 cm: the growing covariance is less sure.
@@ -344,17 +385,14 @@ TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocaliz
   // next measurement agrees with the particles.
   BackendParams p = params(50, 0.01);
   p.filter.kidnap.recover_landmarks = 2;
-  Backend be(p);
-  int64_t seq = 0;
-  auto driveTo = [&](int64_t last) {
-    for (; seq <= last; ++seq) be.addOdometry(reading(seq));
-  };
-  driveTo(50);
+  OnTheCircle c(p);
+  Backend& be = c.be;
+  c.driveTo(50);
   EXPECT_EQ(be.addMeasurement(circleMeasurement(1, 0, 50)).update.kind, UpdateKind::kInitialized);
   EXPECT_EQ(be.addMeasurement(circleMeasurement(2, 25, 50)).update.kind, UpdateKind::kInitialized);
   be.filter().startKidnapped();
   for (int64_t s : {110, 130}) {
-    driveTo(s);
+    c.driveTo(s);
     const MeasurementResult r = be.addMeasurement(circleMeasurement(3, 100, s));
     EXPECT_EQ(r.use, MeasurementUse::kUsed);
     EXPECT_TRUE(r.update.deferred);
@@ -362,14 +400,14 @@ TEST(BackendMeasurements, ALandmarkFirstSeenWhileKidnappedIsMappedAtTheRelocaliz
   EXPECT_EQ(be.filter().numLandmarks(), 2u);
   bool recovered = false;
   for (int64_t s = 150; s < 200 && !recovered; s += 5) {
-    driveTo(s);
+    c.driveTo(s);
     recovered =
         be.addMeasurement(circleMeasurement(s % 2 ? 1 : 2, s % 2 ? 0 : 25, s)).update.recovered;
   }
   ASSERT_TRUE(recovered);
   EXPECT_EQ(be.counters().landmarks_mapped_after_relocalization, 1);
   EXPECT_EQ(be.filter().numLandmarks(), 3u);
-  driveTo(220);
+  c.driveTo(220);
   const MeasurementResult again = be.addMeasurement(circleMeasurement(3, 100, 220));
   EXPECT_EQ(again.update.kind, UpdateKind::kMixture);
   EXPECT_GT(again.update.agreement, 0.5);
