@@ -27,7 +27,8 @@
 //   BM_TrackingFeatures                SIFT (Frontend::extract)
 //   BM_TrackingRecognitionMeasurement  Frontend::track: recognition of every
 //                                      camera's landmarks, the measurements,
-//                                      the creation window
+//                                      the creation window, the view-jump
+//                                      test (ms_contin)
 //   BM_TrackingFilter                  the frame's odometry readings (the
 //                                      back-end's prediction and the pose it
 //                                      publishes) and its measurements
@@ -469,7 +470,8 @@ class Session {
 struct Tally {
   double frames = 0, features = 0, recognized = 0, measurements = 0, accepted = 0, used = 0,
          thinned = 0, created = 0, error_m = 0;
-  double ms_odometry = 0, ms_sift = 0, ms_recognition = 0, ms_measurement = 0, ms_filter = 0;
+  double ms_odometry = 0, ms_sift = 0, ms_recognition = 0, ms_measurement = 0, ms_filter = 0,
+         ms_continuity = 0;
 
   void add(const frontend::FrameResult& r) {
     recognized += r.recognitions;
@@ -477,6 +479,7 @@ struct Tally {
     created += r.created ? 1 : 0;
     ms_recognition += r.recognition_ms;
     ms_measurement += r.measurement_ms;
+    ms_continuity += r.continuity_ms;
   }
   void add(const backend::MeasurementResult& r) {
     accepted += r.status == backend::MeasurementStatus::kAccepted ? 1 : 0;
@@ -489,7 +492,8 @@ struct Tally {
         {"features", features},       {"recognized", recognized},  {"measurements", measurements},
         {"accepted", accepted},       {"filter_updates", used},    {"thinned", thinned},
         {"created", created},         {"ms_odom", ms_odometry},    {"ms_sift", ms_sift},
-        {"ms_recog", ms_recognition}, {"ms_meas", ms_measurement}, {"ms_filter", ms_filter}};
+        {"ms_recog", ms_recognition}, {"ms_meas", ms_measurement}, {"ms_filter", ms_filter},
+        {"ms_contin", ms_continuity}};
     for (const auto& [name, total] : all) {
       if (total > 0) state.counters[name] = total / n;
     }

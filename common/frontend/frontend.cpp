@@ -129,10 +129,12 @@ FrameResult Frontend::track(Utime t, Features features) {
   }
   view.features = std::move(features);
   if (params_.view_jump_max_matched_share > 0) {
+    const Utime t1 = monotonicUtime();
     testContinuity(t, view, result.have_odometry, &result);
+    result.continuity_ms = msSince(t1);
   }
   if (result.have_odometry) considerCreation(std::move(view), &result);
-  result.creation_ms = msSince(t0);
+  result.creation_ms = msSince(t0) - result.continuity_ms;
   return result;
 }
 

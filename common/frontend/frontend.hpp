@@ -108,7 +108,9 @@ struct FrameResult {
   double matched_share = -1;
   bool view_jumped = false;
   Utime previous_utime = 0;
-  double recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
+  // Wall time of the frame's parts (creation: refinement and the window of
+  // views; continuity: the view-jump test).
+  double recognition_ms = 0, measurement_ms = 0, creation_ms = 0, continuity_ms = 0;
 };
 
 class Frontend {
