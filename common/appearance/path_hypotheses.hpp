@@ -194,7 +194,7 @@ struct SlamParams {
   double gate = 11.34;            // max Mahalanobis^2 of a revisit (chi2 3 dof, 99 %)
   double place_sigma_m = 0.25;    // extent of a state, metres
   double place_sigma_rad = 0.17;  // ... and radians
-  double min_belief = 1e-3;       // pruning threshold
+  double min_belief = 0.05;       // pruning threshold
   int max_hypotheses = 20;        // bound
   // Links traced on either side of the state the path last re-visited (see
   // "Tracing through a revisit" above); 0 traces along the path only.
