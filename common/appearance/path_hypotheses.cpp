@@ -450,11 +450,13 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
                                          const std::vector<int64_t>& reachable,
                                          std::vector<Child>* children) {
   // The states of h's map, but for those its trace reaches likelier than a
-  // seed's prior and those of its last relocalization_recent_visits visits: over a few links the
-  // trace is reliable, and it alone says whether the robot is back (in a corridor the state a metre
-  // back looks like the snapshot, and is not where the robot is). Unless the view jumped: a
-  // snapshot that looks no more like h's last state than a new place would is not the next view
-  // along a corridor, and a carried robot is often put down beside the states it made just before.
+  // seed's prior and those of its last relocalization_recent_visits
+  // visits: over a few links the trace is reliable, and it alone says
+  // whether the robot is back (in a corridor the state a metre back looks
+  // like the snapshot, and is not where the robot is). Unless the view
+  // jumped: a snapshot that looks no more like h's last state than a new
+  // place would is not the next view along a corridor, and a carried robot
+  // is often put down beside the states it made just before.
   bool last_turned = false;
   const bool view_jumped =
       bestObservationLog(h.node->state_id, z.histograms, &last_turned) <= logNew();

@@ -149,7 +149,9 @@ struct KidnapParams {
   // consistent measurements of landmarks placed since the jump do not end
   // a run of inconsistent ones: they were placed from the pose the robot
   // was thought to be at and agree with it by construction, so they say
-  // nothing of whether it is there. 0: view jumps are ignored.
+  // nothing of whether it is there. A kidnapping declared within the
+  // window, or during which a view jumps, is known to be real
+  // (robotWasMoved). 0: view jumps are ignored.
   double view_jump_window_s = 0.0;
 };
 

@@ -119,7 +119,9 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("view_jump_window_s", &K::view_jump_window_s, InRange{0, 600}, "s",
            "for this long after a front-end's view jumped (carried, kidnapped), landmarks placed "
            "since the jump do not end a run of inconsistent measurements (they agree with the "
-           "pose the robot was thought to be at by construction); 0: view jumps are ignored");
+           "pose the robot was thought to be at by construction), and a kidnapping declared is "
+           "known to be real: relocalized with every measurement, not cancelled by landmarks "
+           "placed since it began; 0: view jumps are ignored");
   return t;
 }
 
