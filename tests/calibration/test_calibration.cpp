@@ -17,6 +17,7 @@
 #include "calibration/calibration.hpp"
 #include "calibration/frame_source.hpp"
 #include "config/robot_config.hpp"
+#include "support/test_logs.hpp"
 
 namespace fs = std::filesystem;
 namespace cal = vslam::calibration;
@@ -40,9 +41,7 @@ std::vector<fs::path> sampleViews() {
 cv::Mat readGray(const fs::path& file) { return cv::imread(file.string(), cv::IMREAD_GRAYSCALE); }
 
 fs::path tempFile(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("vslam_test_calibration_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  static const fs::path dir = vslam::test::scratchDir("test_calibration");
   return dir / name;
 }
 

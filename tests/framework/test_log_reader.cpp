@@ -1,7 +1,6 @@
 // bus::LogReader: the one reader of LCM logs, strict for the tools and
 // skipping for the replay, against damage LCM's own reader cannot survive.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +12,7 @@
 
 #include "bus/log_reader.hpp"
 #include "bus/log_writer.hpp"
+#include "support/test_logs.hpp"
 
 namespace fs = std::filesystem;
 using vslam::bus::LogDamage;
@@ -22,9 +22,7 @@ using vslam::bus::LogReader;
 namespace {
 
 fs::path tempLog(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("vslam_test_log_reader_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  static const fs::path dir = vslam::test::scratchDir("test_log_reader");
   return dir / name;
 }
 

@@ -3,7 +3,6 @@
 // strict reading of the evaluation tools must refuse damage with a LogError
 // naming the byte, the replay's skipping reading must get through any file
 // without an exception, and neither may crash, hang or read past the file.
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -20,11 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path scratchFile() {
-  static const fs::path file = [] {
-    const fs::path d = fs::temp_directory_path() / ("vslam_fuzz_log_" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d / "log";
-  }();
+  static const fs::path file = vslam::fuzz::scratchDir("log") / "log";
   return file;
 }
 

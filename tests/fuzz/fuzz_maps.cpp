@@ -4,7 +4,6 @@
 // appearance map's loader must refuse a bad file with their MapFileError
 // naming it, and read a good one; any other exception, a crash or a
 // sanitizer report is a finding.
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -18,15 +17,6 @@
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path scratchDir() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("vslam_fuzz_maps_" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
 
 std::string readBytes(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
@@ -59,7 +49,7 @@ void readAppearanceMap(const fs::path& file) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
-  const fs::path file = scratchDir() / "map";
+  const fs::path file = vslam::fuzz::scratchDir("maps") / "map";
   for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(file.string() + suffix);
   std::ofstream(file, std::ios::binary)
       .write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
@@ -72,7 +62,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 }
 
 std::vector<std::string> vslam::fuzz::seeds() {
-  const fs::path dir = scratchDir();
+  const fs::path dir = vslam::fuzz::scratchDir("maps");
   std::vector<std::string> out;
   {  // a landmark map with two landmarks
     const fs::path file = dir / "seed.vslam-map";

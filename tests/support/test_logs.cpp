@@ -8,6 +8,8 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
+#include <vector>
 #include <vslam/ground_truth_pose_t.hpp>
 #include <vslam/image_t.hpp>
 #include <vslam/odometry_t.hpp>
@@ -15,7 +17,6 @@
 #include "bus/log_writer.hpp"
 
 namespace vslam::test {
-namespace {}  // namespace
 
 void writeDrivingLog(const std::filesystem::path& file, double seconds, double image_hz) {
   bus::LogWriter log(file);
@@ -95,11 +96,37 @@ int runCommand(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+namespace {
+
+// Scratch directories are removed when the test process exits, so a test
+// that fails half-way (or a caller that forgets) leaves nothing in /tmp:
+// CTest runs every test case as a process of its own. Only by the process
+// that made them, not by a forked child.
+class RemovedAtExit {
+ public:
+  void add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
+  ~RemovedAtExit() {
+    if (::getpid() != owner_) return;
+    for (const auto& dir : dirs_) {
+      std::error_code ignored;
+      std::filesystem::remove_all(dir, ignored);
+    }
+  }
+
+ private:
+  pid_t owner_ = ::getpid();
+  std::vector<std::filesystem::path> dirs_;
+};
+
+}  // namespace
+
 std::filesystem::path scratchDir(const std::string& tag) {
+  static RemovedAtExit removed_at_exit;
   auto dir =
       std::filesystem::temp_directory_path() / ("vslam_" + tag + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  removed_at_exit.add(dir);
   return dir;
 }
 

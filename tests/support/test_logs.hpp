@@ -27,7 +27,8 @@ std::string readFileBytes(const std::filesystem::path& file);
 // (-1 if it did not exit normally).
 int runCommand(const std::string& command, std::string* output);
 
-// A per-test scratch directory, removed by the caller.
+// A per-test scratch directory, emptied if it exists; removed by the caller
+// or, at the latest, when the process exits.
 std::filesystem::path scratchDir(const std::string& tag);
 
 }  // namespace vslam::test
