@@ -265,8 +265,7 @@ UpdateReport ParticleFilter::unweighedReport(UpdateKind kind, double agreement) 
 UpdateReport ParticleFilter::update(const Observation& obs) {
   if (!obs.relative.isFinite() || !obs.covariance.allFinite())
     throw std::invalid_argument("backend filter: non-finite observation");
-  const Eigen::Matrix3d r =
-      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  const Eigen::Matrix3d r = measurementCovarianceOf(obs);
   const auto found = slots_.find(obs.landmark_id);
   if (found == slots_.end() && kidnapped_) {
     // A landmark first seen while kidnapped would be placed relative to
@@ -516,20 +515,20 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     } else if (endsLowRun(slot, obs.utime)) {
       endLowRun();
     }
-    const std::optional<Pose2> evidence =
+    const std::optional<Evidence> evidence =
         static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
     if (evidence) {
       const PoseEstimate now = estimate();
       const Pose2 from = now.mean;
+      const Pose2& to = evidence->pose;
       rep->evidence = true;
-      rep->jump = {evidence->x - from.x, evidence->y - from.y,
-                   wrapAngle(evidence->theta - from.theta)};
+      rep->jump = {to.x - from.x, to.y - from.y, wrapAngle(to.theta - from.theta)};
       rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
       if (kp.drift_gate_mahalanobis_sq > 0 &&
           rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
         // Drift: every particle moves by the jump (keeping its spread and
         // map); this measurement then weighs them as usual.
-        shiftParticles(evidence->compose(from.inverse()));
+        shiftParticles(to.compose(from.inverse()));
         rep->drift_corrected = true;
         smoothed_agreement_ = 1;
       } else {
@@ -548,13 +547,13 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         rep->kidnap_detected = true;
         robot_was_moved_ = recentViewJump(obs.utime);
         view_jump_utime_ = std::numeric_limits<int64_t>::min();  // it did its work
-        chooseRetestCandidates(*evidence);
+        chooseRetestCandidates(to);
         // The measurements that declared it stay in the relocalization's
         // window: they say where the robot is.
         reloc_run_.clear();
         kidnap_declared_utime_ = obs.utime;
         for (const Implied& m : low_run_)
-          if (agreesWith(m, *evidence, 1.0)) reloc_run_.push_back(m);
+          if (agreesWith(m, to, 1.0)) reloc_run_.push_back(m);
         recover_count_ = 0;
         recover_landmarks_.clear();
         all_dual = true;
@@ -708,8 +707,7 @@ bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
 double ParticleFilter::noteUnused(const Observation& obs) {
   const int64_t slot = slotOf(obs.landmark_id);
   if (slot < 0 || !obs.relative.isFinite() || !obs.covariance.allFinite()) return 0;
-  const Eigen::Matrix3d r =
-      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  const Eigen::Matrix3d r = measurementCovarianceOf(obs);
   const double agreement =
       agreementWith(static_cast<uint32_t>(slot), obs, r, normalizedLogWeights());
   if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
@@ -719,9 +717,27 @@ double ParticleFilter::noteUnused(const Observation& obs) {
   return agreement;
 }
 
+Eigen::Matrix3d ParticleFilter::measurementCovarianceOf(const Observation& obs) const {
+  return obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+}
+
 ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t slot) const {
   const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
-  return {obs.landmark_id, slot, obs.utime, toPose(lm->mean).compose(obs.relative), odometry_};
+  const Pose2 phi = toPose(lm->mean);
+  const Pose2& y = obs.relative;
+  // s = phi (+) y: first-order covariance from the landmark's and y's.
+  const double c = std::cos(phi.theta), sn = std::sin(phi.theta);
+  Eigen::Matrix3d j_phi;               // ds/dphi
+  j_phi << 1, 0, -sn * y.x - c * y.y,  //
+      0, 1, c * y.x - sn * y.y,        //
+      0, 0, 1;
+  Eigen::Matrix3d j_y;  // ds/dy
+  j_y << c, -sn, 0,     //
+      sn, c, 0,         //
+      0, 0, 1;
+  const Eigen::Matrix3d covariance = j_phi * lm->covariance * j_phi.transpose() +
+                                     j_y * measurementCovarianceOf(obs) * j_y.transpose();
+  return {obs.landmark_id, slot, obs.utime, phi.compose(y), covariance, odometry_};
 }
 
 Pose2 ParticleFilter::carriedToNow(const Implied& m) const {
@@ -739,10 +755,11 @@ bool ParticleFilter::agreesWith(const Implied& m, const Pose2& at, double scale)
 }
 
 int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
-                                      Pose2* mean_pose) const {
+                                      Evidence* cluster) const {
   const Pose2 ref = carriedToNow(run[i]);
   std::vector<int64_t> agreeing;
   double sx = 0, sy = 0, sc = 0, ss = 0, members = 0;  // the cluster's mean pose
+  Eigen::Matrix3d covariance_sum = Eigen::Matrix3d::Zero();
   for (const Implied& m : run) {
     const Pose2 p = carriedToNow(m);
     if (clusterOffset(p, ref) > 1) continue;
@@ -750,31 +767,34 @@ int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
     sy += p.y;
     sc += std::cos(p.theta);
     ss += std::sin(p.theta);
+    covariance_sum += m.covariance;
     members += 1;  // at least run[i] itself
     if (std::find(agreeing.begin(), agreeing.end(), m.landmark_id) == agreeing.end())
       agreeing.push_back(m.landmark_id);
   }
-  if (mean_pose != nullptr) *mean_pose = {sx / members, sy / members, std::atan2(ss, sc)};
+  if (cluster != nullptr)
+    *cluster = {{sx / members, sy / members, std::atan2(ss, sc)}, covariance_sum / members};
   return static_cast<int>(agreeing.size());
 }
 
-std::optional<Pose2> ParticleFilter::kidnapEvidence(const KidnapParams& kp) const {
+std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
+    const KidnapParams& kp) const {
   if (kp.detect_min_span_s > 0 &&
       static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
           kp.detect_min_span_s * 1e6)
     return std::nullopt;
   for (size_t i = 0; i < low_run_.size(); ++i) {
-    Pose2 at;
+    Evidence at;
     if (agreeingLandmarks(low_run_, i, &at) >= kp.detect_landmarks) return at;
   }
   return std::nullopt;
 }
 
-double ParticleFilter::driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const {
+double ParticleFilter::driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const {
   const double k = params_.kidnap.drift_sigma_scale;
-  const Eigen::Matrix3d s = k * k * from.covariance + params_.measurementCovariance();
-  const Eigen::Vector3d d(to.x - from.mean.x, to.y - from.mean.y,
-                          wrapAngle(to.theta - from.mean.theta));
+  const Eigen::Matrix3d s = k * k * from.covariance + to.covariance;
+  const Eigen::Vector3d d(to.pose.x - from.mean.x, to.pose.y - from.mean.y,
+                          wrapAngle(to.pose.theta - from.mean.theta));
   return d.dot(s.ldlt().solve(d));
 }
 
@@ -912,8 +932,7 @@ void ParticleFilter::loadMap(const std::vector<KnownLandmark>& landmarks) {
 double ParticleFilter::outlierFraction(const Observation& obs) const {
   const int64_t slot = slotOf(obs.landmark_id);
   if (slot < 0 || particles_.empty()) return 1.0;
-  const Eigen::Matrix3d r =
-      obs.covariance.isZero(0) ? params_.measurementCovariance() : obs.covariance;
+  const Eigen::Matrix3d r = measurementCovarianceOf(obs);
   size_t outliers = 0;
   for (const Particle& p : particles_) {
     const LandmarkEstimate* lm = p.map.find(static_cast<uint32_t>(slot));

@@ -117,8 +117,10 @@ struct KidnapParams {
   // the particles are moved onto the evidence and the filter goes on, with
   // no kidnapped period. "Within": the jump's squared Mahalanobis distance
   // under drift_sigma_scale^2 x the particles' covariance (spread by the
-  // motion model, whose sigmas are a guess) + Sigma_vis is at most
-  // drift_gate_mahalanobis_sq. 0: every such evidence is a kidnapping.
+  // motion model, whose sigmas are a guess) + the evidence's own covariance
+  // (its landmarks' and its measurements', Observation::covariance: grown
+  // with the distance in the back-end) is at most drift_gate_mahalanobis_sq.
+  // 0: every such evidence is a kidnapping.
   double drift_gate_mahalanobis_sq = 0.0;
   double drift_sigma_scale = 1.0;
   // The hypothesis a kidnapping replaced stays alive until it is resolved:
@@ -344,22 +346,30 @@ class ParticleFilter {
   std::unordered_map<int64_t, uint32_t> slots_;
   std::vector<int64_t> ids_;
   uint64_t step_ = 0;  // counts predict/update/resample calls: the random streams' step
-  // A measurement's implied robot pose (best particle's landmark) and the
-  // odometry then.
+  // A measurement's implied robot pose (best particle's landmark), its
+  // covariance (the landmark's and the measurement's), and the odometry then.
   struct Implied {
     int64_t landmark_id;
     uint32_t slot;
     int64_t utime;
     Pose2 implied;
+    Eigen::Matrix3d covariance;
     Pose2 odometry;
   };
   Implied implied(const Observation& obs, uint32_t slot) const;
+  // Where a cluster of implied poses, carried to now, says the robot is,
+  // and how well: the mean of its members' covariances (measurements of one
+  // landmark share its error, so their number does not shrink it).
+  struct Evidence {
+    Pose2 pose;
+    Eigen::Matrix3d covariance;
+  };
   // Distinct landmarks of `run` whose implied poses, carried to now by the
   // odometry, agree with that of run[i] (KidnapParams::cluster_*).
   int agreeingLandmarks(const std::vector<Implied>& run, size_t i,
-                        Pose2* mean_pose = nullptr) const;
+                        Evidence* cluster = nullptr) const;
   // Where the inconsistent run says the robot is, if it is evidence enough.
-  std::optional<Pose2> kidnapEvidence(const KidnapParams& kp) const;
+  std::optional<Evidence> kidnapEvidence(const KidnapParams& kp) const;
   // The particles' log weights, normalised so that their exponentials sum to 1.
   std::vector<double> normalizedLogWeights() const;
   // The particles' agreement with a measurement of the landmark in `slot`,
@@ -423,8 +433,11 @@ class ParticleFilter {
   bool endsLowRun(uint32_t slot, int64_t t) const;
   // A view jump noted no more than view_jump_window_s before t (0: never).
   bool recentViewJump(int64_t t) const;
-  // The jump from the estimate to `to` under the drift covariance (KidnapParams).
-  double driftMahalanobisSq(const PoseEstimate& from, const Pose2& to) const;
+  // The jump from the estimate to the evidence under the drift covariance
+  // (KidnapParams): the particles' spread, scaled, and the evidence's own.
+  double driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const;
+  // The observation's covariance (FilterParams' Sigma_vis if it has none).
+  Eigen::Matrix3d measurementCovarianceOf(const Observation& obs) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
 

@@ -107,7 +107,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "evidence of a pose within this squared Mahalanobis distance of the estimate is drift: "
            "the particles move onto it, no kidnapping; 0: every such evidence is a kidnapping")
       .add("drift_sigma_scale", &K::drift_sigma_scale, InRange{1e-3, 1000}, "",
-           "...under this scale² × the particles' covariance + Σ_vis")
+           "...under this scale² × the particles' covariance + the evidence's own (its "
+           "landmarks' and measurements' covariance)")
       .add("cancel_count", &K::cancel_count, InRange{0, 1000}, "",
            "while kidnapped, this many measurements that agree with the particles as they were "
            "when it was declared (carried by the odometry) cancel it: look-alikes declared it; "

@@ -878,7 +878,10 @@ struct DriftRun {
   int kidnaps = 0, drift_corrections = 0;
 };
 
-DriftRun runDrift(FilterParams p, double bias_rad_per_m) {
+// obs_sigma_scale > 0: each observation carries its own covariance, the
+// filter's Sigma_vis times obs_sigma_scale^2 (as the back-end's, grown with
+// the distance from the landmark's creation pose).
+DriftRun runDrift(FilterParams p, double bias_rad_per_m, double obs_sigma_scale = 0) {
   test::SyntheticParams sp;
   test::SyntheticWorld world(sp);
   world.build(2.0);
@@ -899,6 +902,8 @@ DriftRun runDrift(FilterParams p, double bias_rad_per_m) {
     for (; next < meas.size() && meas[next].tick == t; ++next) {
       Observation obs{meas[next].landmark_id, meas[next].y};
       obs.utime = world.utime(t);
+      if (obs_sigma_scale > 0)
+        obs.covariance = obs_sigma_scale * obs_sigma_scale * p.measurementCovariance();
       const UpdateReport rep = pf.update(obs);
       out.kidnaps += rep.kidnap_detected;
       out.drift_corrections += rep.drift_corrected;
@@ -953,6 +958,19 @@ TEST(ParticleFilter, WithoutTheDriftGateTheSameLoopClosureIsAKidnapping) {
   const DriftRun d = runDrift(p, 0.04);
   EXPECT_GE(d.kidnaps, 1);
   EXPECT_EQ(d.drift_corrections, 0);
+}
+
+TEST(ParticleFilter, TheDriftGateWeighsTheEvidenceWithItsMeasurementsOwnCovariance) {
+  // The same loop closing after a steeper drift, measured by observations
+  // three times as uncertain as the filter's Sigma_vis: the evidence is as
+  // uncertain as they are (and their landmarks), so the jump is drift. Under
+  // Sigma_vis instead (the gate before 2026-11-28) it was a kidnapping, the
+  // case of tuning home 41: relocalized 0.5 m off from landmarks 3 m away,
+  // then three "kidnappings" of 0.5-0.6 m.
+  const DriftRun d = runDrift(driftParams(), 0.06, 3.0);
+  EXPECT_EQ(d.kidnaps, 0);
+  EXPECT_GE(d.drift_corrections, 1);
+  for (size_t i = 0; i < d.run.ticks.size(); ++i) EXPECT_FALSE(d.run.kidnapped[i]) << i;
 }
 
 TEST(ParticleFilter, ACarryFarBeyondTheDriftIsStillAKidnapping) {
