@@ -28,6 +28,11 @@ constexpr size_t kMaxRunMeasurements = 64;
 // Recent inconsistent measurements kept to find where a kidnapping began.
 constexpr size_t kMaxRecentInconsistent = 256;
 
+// How far (in cluster sizes, KidnapParams::cluster_*) a landmark's implied
+// poses in one run of inconsistent measurements may lie apart before it
+// counts as recognised at more than one wrong place (kidnapEvidence).
+constexpr double kWanderingClusterScale = 2.0;
+
 template <class T>
 void pushBounded(std::vector<T>& run, T value, size_t max_size = kMaxRunMeasurements) {
   if (run.size() >= max_size) run.erase(run.begin());
@@ -754,25 +759,33 @@ bool ParticleFilter::agreesWith(const Implied& m, const Pose2& at, double scale)
   return clusterOffset(carriedToNow(m), at) <= scale;
 }
 
-int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
-                                      Evidence* cluster) const {
+int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i, Evidence* cluster,
+                                      bool skip_wandering) const {
   const Pose2 ref = carriedToNow(run[i]);
+  std::vector<int64_t> wandering;
+  if (skip_wandering) {
+    for (const Implied& m : run)
+      if (clusterOffset(carriedToNow(m), ref) > kWanderingClusterScale &&
+          std::find(wandering.begin(), wandering.end(), m.landmark_id) == wandering.end())
+        wandering.push_back(m.landmark_id);
+  }
   std::vector<int64_t> agreeing;
   double sx = 0, sy = 0, sc = 0, ss = 0, members = 0;  // the cluster's mean pose
   Eigen::Matrix3d covariance_sum = Eigen::Matrix3d::Zero();
   for (const Implied& m : run) {
     const Pose2 p = carriedToNow(m);
     if (clusterOffset(p, ref) > 1) continue;
+    if (std::find(wandering.begin(), wandering.end(), m.landmark_id) != wandering.end()) continue;
     sx += p.x;
     sy += p.y;
     sc += std::cos(p.theta);
     ss += std::sin(p.theta);
     covariance_sum += m.covariance;
-    members += 1;  // at least run[i] itself
+    members += 1;
     if (std::find(agreeing.begin(), agreeing.end(), m.landmark_id) == agreeing.end())
       agreeing.push_back(m.landmark_id);
   }
-  if (cluster != nullptr)
+  if (cluster != nullptr && members > 0)
     *cluster = {{sx / members, sy / members, std::atan2(ss, sc)}, covariance_sum / members};
   return static_cast<int>(agreeing.size());
 }
@@ -783,9 +796,16 @@ std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
       static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
           kp.detect_min_span_s * 1e6)
     return std::nullopt;
+  // A landmark recognised at more than one wrong place in the run (its
+  // implied poses far apart, beyond kWanderingClusterScale x the cluster's
+  // size) is a pattern repeated across the home, and gives no evidence
+  // (tuning home 36: each landmark of one wallpaper put the robot 2-4 m
+  // away, somewhere else every few seconds; two false kidnappings). Not within
+  // view_jump_window_s of a view jump: a robot being carried wanders too.
+  const bool skip_wandering = !recentViewJump(low_run_.back().utime);
   for (size_t i = 0; i < low_run_.size(); ++i) {
     Evidence at;
-    if (agreeingLandmarks(low_run_, i, &at) >= kp.detect_landmarks) return at;
+    if (agreeingLandmarks(low_run_, i, &at, skip_wandering) >= kp.detect_landmarks) return at;
   }
   return std::nullopt;
 }

@@ -365,9 +365,11 @@ class ParticleFilter {
     Eigen::Matrix3d covariance;
   };
   // Distinct landmarks of `run` whose implied poses, carried to now by the
-  // odometry, agree with that of run[i] (KidnapParams::cluster_*).
-  int agreeingLandmarks(const std::vector<Implied>& run, size_t i,
-                        Evidence* cluster = nullptr) const;
+  // odometry, agree with that of run[i] (KidnapParams::cluster_*); with
+  // skip_wandering, not those with another implied pose in `run` far from
+  // it (kWanderingClusterScale).
+  int agreeingLandmarks(const std::vector<Implied>& run, size_t i, Evidence* cluster = nullptr,
+                        bool skip_wandering = false) const;
   // Where the inconsistent run says the robot is, if it is evidence enough.
   std::optional<Evidence> kidnapEvidence(const KidnapParams& kp) const;
   // The particles' log weights, normalised so that their exponentials sum to 1.
