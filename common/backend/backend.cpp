@@ -316,26 +316,18 @@ Observation Backend::alignedObservation(const MeasurementInput& m, const Pose2& 
   // Move the measurement to the particles' time: y_now = y (+) D.
   const Pose2 d = then.between(history_.back().reading.pose);
   const Pose2& y = m.relative;
-  Observation obs;
-  obs.landmark_id = m.landmark_id;
-  obs.utime = m.utime;
-  obs.relative = y.compose(d);
-  const double c = std::cos(y.theta), s = std::sin(y.theta);
-  Eigen::Matrix3d jy;              // d(y (+) D)/dy
-  jy << 1, 0, -s * d.x - c * d.y,  //
-      0, 1, c * d.x - s * d.y,     //
-      0, 0, 1;
-  Eigen::Matrix3d jd;  // d(y (+) D)/dD
-  jd << c, -s, 0,      //
-      s, c, 0,         //
-      0, 0, 1;
   Eigen::Matrix3d r = params_.filter.measurementCovariance();
   const double dist = std::hypot(y.x, y.y);
   r(0, 0) += std::pow(params_.measurement_sigma_xy_per_m * dist, 2);
   r(1, 1) += std::pow(params_.measurement_sigma_xy_per_m * dist, 2);
   r(2, 2) += std::pow(params_.measurement_sigma_theta_rad_per_m * dist, 2);
-  obs.covariance =
-      jy * r * jy.transpose() + jd * filter_.params().motion.stepCovariance(d) * jd.transpose();
+  PoseWithCovariance now(y, r);
+  now.apply(d, filter_.params().motion.stepCovariance(d));
+  Observation obs;
+  obs.landmark_id = m.landmark_id;
+  obs.utime = m.utime;
+  obs.relative = now.pose();
+  obs.covariance = now.covariance();
   return obs;
 }
 

@@ -728,21 +728,10 @@ Eigen::Matrix3d ParticleFilter::measurementCovarianceOf(const Observation& obs) 
 
 ParticleFilter::Implied ParticleFilter::implied(const Observation& obs, uint32_t slot) const {
   const LandmarkEstimate* lm = particles_[bestParticle()].map.find(slot);
-  const Pose2 phi = toPose(lm->mean);
-  const Pose2& y = obs.relative;
-  // s = phi (+) y: first-order covariance from the landmark's and y's.
-  const double c = std::cos(phi.theta), sn = std::sin(phi.theta);
-  Eigen::Matrix3d j_phi;               // ds/dphi
-  j_phi << 1, 0, -sn * y.x - c * y.y,  //
-      0, 1, c * y.x - sn * y.y,        //
-      0, 0, 1;
-  Eigen::Matrix3d j_y;  // ds/dy
-  j_y << c, -sn, 0,     //
-      sn, c, 0,         //
-      0, 0, 1;
-  const Eigen::Matrix3d covariance = j_phi * lm->covariance * j_phi.transpose() +
-                                     j_y * measurementCovarianceOf(obs) * j_y.transpose();
-  return {obs.landmark_id, slot, obs.utime, phi.compose(y), covariance, odometry_};
+  // s = phi (+) y, its covariance from the landmark's and y's.
+  PoseWithCovariance s(toPose(lm->mean), lm->covariance);
+  s.apply(obs.relative, measurementCovarianceOf(obs));
+  return {obs.landmark_id, slot, obs.utime, s.pose(), s.covariance(), odometry_};
 }
 
 Pose2 ParticleFilter::carriedToNow(const Implied& m) const {
