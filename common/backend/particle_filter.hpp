@@ -108,7 +108,9 @@ struct KidnapParams {
   // It is also confirmed when recover_landmarks distinct landmarks measured
   // within the last recover_window_s (0: off) agree on one pose (cluster_*),
   // the newest measurement among them: the all-dual particles, drawn from
-  // one measurement at a time, test only neighbours in a row.
+  // one measurement at a time, test only neighbours in a row. Either way,
+  // unless the robot was seen to be moved (robotWasMoved), the confirming
+  // measurement is of a landmark other than those that declared it.
   double recover_window_s = 0.0;
   // Drift or kidnapping? Evidence that passes the tests above says where the
   // robot is; if that pose is within the uncertainty the filter has, the
@@ -442,6 +444,8 @@ class ParticleFilter {
   Eigen::Matrix3d measurementCovarianceOf(const Observation& obs) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
+  // One of the landmarks whose measurements declared the current kidnapping.
+  bool isKidnapEvidence(uint32_t slot) const;
 
   // Per slot: the capture time of the measurement that placed it, and
   // whether it is to be re-tested (retest); the shift of the relocalization
@@ -477,8 +481,8 @@ class ParticleFilter {
   Pose2 held_;                              // published while kidnapped
   // While kidnapped (not after startKidnapped): the particles when it was
   // declared, carried by the odometry; the odometry since their last update;
-  // the landmarks whose measurements declared it; the measurements that
-  // agreed with them since.
+  // the landmarks whose measurements declared it (isKidnapEvidence); the
+  // measurements that agreed with them since.
   std::vector<Particle> before_kidnap_;
   PoseWithCovariance before_kidnap_since_update_;
   std::vector<uint32_t> kidnap_evidence_slots_;
