@@ -365,6 +365,7 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     recover_landmarks_.clear();
   }
   if (rep.recovered && !rep.cancelled) {
+    if (robot_was_moved_) moved_relocalized_utime_ = obs.utime;
     // Relocalized: the landmarks placed while the robot may already have
     // been moved are re-tested with the shift from the pose held to here.
     retest_shift_ = estimate().mean.compose(held_.inverse());
@@ -471,7 +472,12 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     // recognised, and they would "confirm" the look-alike's place before any
     // other landmark (one that could cancel it) is seen (the living room,
     // simulator seed 22, with refined landmarks: 4.3 m off for 40 s).
-    const bool independent = robot_was_moved_ || !isKidnapEvidence(slot);
+    // A kidnapping declared soon after a moved robot's relocalization (a
+    // carry, a start in a saved map) is that relocalization being corrected,
+    // from few landmarks (reporting home 1019's restart in a 7-landmark map:
+    // 9 s, never once this held it).
+    const bool independent =
+        robot_was_moved_ || recentlyRelocalizedAfterAMove(obs.utime) || !isKidnapEvidence(slot);
     if (kp.recover_window_s > 0) {
       pushBounded(reloc_run_, implied(obs, slot));
       const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
@@ -714,6 +720,13 @@ bool ParticleFilter::recentViewJump(int64_t t) const {
   const double window_s = params_.kidnap.view_jump_window_s;
   if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return false;
   return static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
+}
+
+bool ParticleFilter::recentlyRelocalizedAfterAMove(int64_t t) const {
+  const double window_s = params_.kidnap.view_jump_window_s;
+  if (window_s <= 0 || moved_relocalized_utime_ == std::numeric_limits<int64_t>::min())
+    return false;
+  return static_cast<double>(t - moved_relocalized_utime_) <= window_s * 1e6;
 }
 
 bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {

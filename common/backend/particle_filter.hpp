@@ -437,6 +437,9 @@ class ParticleFilter {
   bool endsLowRun(uint32_t slot, int64_t t) const;
   // A view jump noted no more than view_jump_window_s before t (0: never).
   bool recentViewJump(int64_t t) const;
+  // A robot known to have been moved relocalized no more than
+  // view_jump_window_s before t.
+  bool recentlyRelocalizedAfterAMove(int64_t t) const;
   // The jump from the estimate to the evidence under the drift covariance
   // (KidnapParams): the particles' spread, scaled, and the evidence's own.
   double driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const;
@@ -463,6 +466,8 @@ class ParticleFilter {
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
   bool robot_was_moved_ = false;                                   // robotWasMoved()
+  int64_t moved_relocalized_utime_ =
+      std::numeric_limits<int64_t>::min();  // recentlyRelocalized...()
   // While kidnapped: the measurements of the last recover_window_s, from
   // those that declared it (at kidnap_declared_utime_) on.
   std::vector<Implied> reloc_run_;

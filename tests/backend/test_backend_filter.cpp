@@ -1351,6 +1351,41 @@ TEST(ParticleFilter, LookAlikesThatDeclaredAKidnappingCannotConfirmItWithoutAVie
   }
 }
 
+TEST(ParticleFilter, AMovedRobotsRelocalizationIsCorrectedAsSoonAsItWasMade) {
+  // A front-end sees the view jump of a robot carried 3 m back; landmarks 1
+  // and 2 declare the kidnapping and confirm it. Then they put the robot
+  // 2 m further back (the relocalization was wrong; the view jump is used
+  // up): a second kidnapping. Soon after the moved robot's relocalization
+  // (view_jump_window_s) it is a correction of it, and the two confirm it as
+  // they did the first; 30 s later it would be a look-alike's false alarm
+  // for all they can tell, and they do not.
+  const auto at = observationAt;
+  auto second = [&](double after_s) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});
+    pf->noteViewJump(at(0, {}, 0.5).utime);
+    double s = 1;
+    for (int k = 0; k < 12 && (pf->kidnapped() || k < 6); ++k, s += 0.5)
+      pf->update(seenFromThreeMetresBack(k, s));
+    EXPECT_FALSE(pf->kidnapped());
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+    s += after_s;
+    int kidnaps = 0;
+    for (int k = 0; k < 8 && !pf->kidnapped(); ++k, s += 0.5)
+      kidnaps += pf->update(k % 2 ? at(2, {-5, 1, 0}, s) : at(1, {-4, 0, 0}, s)).kidnap_detected;
+    EXPECT_EQ(kidnaps, 1);
+    EXPECT_FALSE(pf->robotWasMoved());
+    bool recovered = false;
+    for (int k = 0; k < 2; ++k, s += 0.5)
+      recovered =
+          pf->update(k % 2 ? at(2, {-5, 1, 0}, s) : at(1, {-4, 0, 0}, s)).recovered || recovered;
+    return recovered;
+  };
+  EXPECT_TRUE(second(0.0));
+  EXPECT_FALSE(second(30.0));
+}
+
 TEST(ParticleFilter, AKnownLookAlikesInconsistentMeasurementWeighsNoParticle) {
   // Landmarks 1 and 2 were twice recognised on a look-alike wall (runs of
   // inconsistent measurements that landmark 3 contradicted): they are known
