@@ -466,8 +466,8 @@ class ParticleFilter {
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
   bool robot_was_moved_ = false;                                   // robotWasMoved()
-  int64_t moved_relocalized_utime_ =
-      std::numeric_limits<int64_t>::min();  // recentlyRelocalized...()
+  // The latest relocalization of a robot known to have been moved.
+  int64_t moved_relocalized_utime_ = std::numeric_limits<int64_t>::min();
   // While kidnapped: the measurements of the last recover_window_s, from
   // those that declared it (at kidnap_declared_utime_) on.
   std::vector<Implied> reloc_run_;
