@@ -365,7 +365,6 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     recover_landmarks_.clear();
   }
   if (rep.recovered && !rep.cancelled) {
-    if (robot_was_moved_) moved_relocalized_utime_ = obs.utime;
     // Relocalized: the landmarks placed while the robot may already have
     // been moved are re-tested with the shift from the pose held to here.
     retest_shift_ = estimate().mean.compose(held_.inverse());
@@ -466,18 +465,6 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
   const MixtureParams& mix = params_.mixture;
   bool all_dual = false;
   if (kidnapped_) {
-    // Unless the robot was seen to be moved (a view jump), the landmarks
-    // that declared the kidnapping cannot confirm it on their own: a
-    // repeated pattern's landmarks agree with one another wherever it is
-    // recognised, and they would "confirm" the look-alike's place before any
-    // other landmark (one that could cancel it) is seen (the living room,
-    // simulator seed 22, with refined landmarks: 4.3 m off for 40 s).
-    // A kidnapping declared soon after a moved robot's relocalization (a
-    // carry, a start in a saved map) is that relocalization being corrected,
-    // from few landmarks (reporting home 1019's restart in a 7-landmark map:
-    // 9 s, never once this held it).
-    const bool independent =
-        robot_was_moved_ || recentlyRelocalizedAfterAMove(obs.utime) || !isKidnapEvidence(slot);
     if (kp.recover_window_s > 0) {
       pushBounded(reloc_run_, implied(obs, slot));
       const auto window = static_cast<int64_t>(kp.recover_window_s * 1e6);
@@ -494,11 +481,10 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       for (const Implied& e : reloc_run_)
         if (e.utime > kidnap_declared_utime_) since_detection.push_back(e);
       *confirmed_by_cluster =
-          independent &&
-          ((!since_detection.empty() &&
-            agreeingLandmarks(since_detection, since_detection.size() - 1) >=
-                kp.recover_landmarks) ||
-           agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks + 1);
+          (!since_detection.empty() &&
+           agreeingLandmarks(since_detection, since_detection.size() - 1) >=
+               kp.recover_landmarks) ||
+          agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks + 1;
     }
     if (agreement >= kp.recover_agreement) {
       ++recover_count_;
@@ -509,7 +495,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       recover_count_ = 0;
       recover_landmarks_.clear();
     }
-    if (independent && recover_count_ >= kp.recover_count &&
+    if (recover_count_ >= kp.recover_count &&
         static_cast<int>(recover_landmarks_.size()) >= kp.recover_landmarks) {
       kidnapped_ = false;
       rep->recovered = true;
@@ -553,12 +539,14 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       } else {
         held_ = from;  // published until the relocalization is confirmed
         kidnapped_ = true;
-        kidnap_evidence_slots_.clear();
-        for (const Implied& l : low_run_)
-          if (!isKidnapEvidence(l.slot)) kidnap_evidence_slots_.push_back(l.slot);
         if (kp.cancel_count > 0) {
           before_kidnap_ = particles_;  // shares every map: O(particles)
           before_kidnap_since_update_ = since_update_;
+          kidnap_evidence_slots_.clear();
+          for (const Implied& l : low_run_)
+            if (std::find(kidnap_evidence_slots_.begin(), kidnap_evidence_slots_.end(), l.slot) ==
+                kidnap_evidence_slots_.end())
+              kidnap_evidence_slots_.push_back(l.slot);
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
@@ -625,11 +613,6 @@ void ParticleFilter::forgetBeforeKidnap() {
   before_kidnap_.clear();
   kidnap_evidence_slots_.clear();
   before_kidnap_agreeing_ = 0;
-}
-
-bool ParticleFilter::isKidnapEvidence(uint32_t slot) const {
-  return std::find(kidnap_evidence_slots_.begin(), kidnap_evidence_slots_.end(), slot) !=
-         kidnap_evidence_slots_.end();
 }
 
 double ParticleFilter::agreementWith(uint32_t slot, const Observation& obs,
@@ -720,13 +703,6 @@ bool ParticleFilter::recentViewJump(int64_t t) const {
   const double window_s = params_.kidnap.view_jump_window_s;
   if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return false;
   return static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
-}
-
-bool ParticleFilter::recentlyRelocalizedAfterAMove(int64_t t) const {
-  const double window_s = params_.kidnap.view_jump_window_s;
-  if (window_s <= 0 || moved_relocalized_utime_ == std::numeric_limits<int64_t>::min())
-    return false;
-  return static_cast<double>(t - moved_relocalized_utime_) <= window_s * 1e6;
 }
 
 bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
