@@ -108,7 +108,9 @@ struct KidnapParams {
   // It is also confirmed when recover_landmarks distinct landmarks measured
   // within the last recover_window_s (0: off) agree on one pose (cluster_*),
   // the newest measurement among them: the all-dual particles, drawn from
-  // one measurement at a time, test only neighbours in a row.
+  // one measurement at a time, test only neighbours in a row. Either way,
+  // unless the robot was seen to be moved (robotWasMoved), a look-alike
+  // that declared it and was contradicted before cannot confirm it alone.
   double recover_window_s = 0.0;
   // Drift or kidnapping? Evidence that passes the tests above says where the
   // robot is; if that pose is within the uncertainty the filter has, the
@@ -433,8 +435,13 @@ class ParticleFilter {
   // the landmark was placed since a view jump less than
   // view_jump_window_s before t.
   bool endsLowRun(uint32_t slot, int64_t t) const;
-  // A view jump noted no more than view_jump_window_s before t (0: never).
+  // since (min: never) is no more than view_jump_window_s (0: off) before t.
+  bool withinViewJumpWindow(int64_t since, int64_t t) const;
+  // A view jump noted no more than view_jump_window_s before t.
   bool recentViewJump(int64_t t) const;
+  // A robot known to have been moved relocalized no more than
+  // view_jump_window_s before t.
+  bool recentlyRelocalizedAfterAMove(int64_t t) const;
   // The jump from the estimate to the evidence under the drift covariance
   // (KidnapParams): the particles' spread, scaled, and the evidence's own.
   double driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const;
@@ -442,6 +449,10 @@ class ParticleFilter {
   Eigen::Matrix3d measurementCovarianceOf(const Observation& obs) const;
   void shiftParticles(const Pose2& shift);
   bool isSuspect(uint32_t slot) const;
+  // One of the landmarks whose measurements declared the current kidnapping.
+  bool isKidnapEvidence(uint32_t slot) const;
+  // The landmark was in an inconsistent run that was contradicted.
+  bool wasContradicted(uint32_t slot) const;
 
   // Per slot: the capture time of the measurement that placed it, and
   // whether it is to be re-tested (retest); the shift of the relocalization
@@ -459,6 +470,8 @@ class ParticleFilter {
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
   bool robot_was_moved_ = false;                                   // robotWasMoved()
+  // The latest relocalization of a robot known to have been moved.
+  int64_t moved_relocalized_utime_ = std::numeric_limits<int64_t>::min();
   // While kidnapped: the measurements of the last recover_window_s, from
   // those that declared it (at kidnap_declared_utime_) on.
   std::vector<Implied> reloc_run_;
@@ -477,8 +490,8 @@ class ParticleFilter {
   Pose2 held_;                              // published while kidnapped
   // While kidnapped (not after startKidnapped): the particles when it was
   // declared, carried by the odometry; the odometry since their last update;
-  // the landmarks whose measurements declared it; the measurements that
-  // agreed with them since.
+  // the landmarks whose measurements declared it (isKidnapEvidence); the
+  // measurements that agreed with them since.
   std::vector<Particle> before_kidnap_;
   PoseWithCovariance before_kidnap_since_update_;
   std::vector<uint32_t> kidnap_evidence_slots_;

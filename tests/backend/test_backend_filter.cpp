@@ -1302,6 +1302,88 @@ TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocaliza
   EXPECT_TRUE(again->kidnapped());
 }
 
+TEST(ParticleFilter, LookAlikesThatDeclaredAKidnappingCannotConfirmItWithoutAViewJump) {
+  // Landmarks 1 and 2 are recognised on a look-alike wall that puts the
+  // standing robot 3 m back: first for 0.5 s, a run that landmark 3, seen
+  // where the robot is, ends (both were seen where they are not); then for
+  // 2 s, agreeing: a kidnapping. Measured there again they agree with each
+  // other and with the all-dual particles, but that is what a repeated
+  // pattern does wherever it is seen: without a view jump it confirms
+  // nothing, and landmark 3 then cancels the kidnapping. When a front-end
+  // saw the view jump (the robot was moved), the same two measurements
+  // confirm the relocalization.
+  const auto at = observationAt;
+  for (const bool jumped : {false, true}) {
+    SCOPED_TRACE(jumped ? "with a view jump" : "without a view jump");
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    pf->update(seenFromThreeMetresBack(0, 0.5));
+    pf->update(seenFromThreeMetresBack(1, 1.0));
+    pf->update(at(3, {0, -1, 0}, 1.2));
+    if (jumped) pf->noteViewJump(at(0, {}, 1.5).utime);
+    int kidnaps = 0;
+    for (int k = 0; k < 8 && !pf->kidnapped(); ++k)
+      kidnaps += pf->update(seenFromThreeMetresBack(k, 2 + 0.5 * k)).kidnap_detected;
+    ASSERT_EQ(kidnaps, 1);
+    bool recovered = false;
+    for (int k = 0; k < 2; ++k)
+      recovered = pf->update(seenFromThreeMetresBack(k, 7 + 0.5 * k)).recovered || recovered;
+    EXPECT_EQ(recovered, jumped);
+    if (jumped) {
+      EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+      continue;
+    }
+    EXPECT_TRUE(pf->kidnapped());
+    bool cancelled = false;
+    for (const double t : {8.5, 9.0})
+      cancelled = pf->update(at(3, {0, -1, 0}, t)).cancelled || cancelled;
+    EXPECT_TRUE(cancelled);
+    EXPECT_FALSE(pf->kidnapped());
+    EXPECT_NEAR(pf->estimate().mean.x, 0.0, 0.05);
+    EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.05);
+  }
+}
+
+TEST(ParticleFilter, AMovedRobotsRelocalizationIsCorrectedAsSoonAsItWasMade) {
+  // Landmarks 1 and 2 were once seen where they are not (a run landmark 3
+  // ended). Then a front-end sees the view jump of a robot carried 3 m
+  // back; the two declare the kidnapping and confirm it. Then they put the
+  // robot 2 m further back (the relocalization was wrong; the view jump is
+  // used up): a second kidnapping. Soon after the moved robot's
+  // relocalization (view_jump_window_s) it is a correction of it, and the
+  // two confirm it as they did the first; 30 s later it would be a
+  // look-alike's false alarm for all they can tell, and they do not.
+  const auto at = observationAt;
+  auto second = [&](double after_s) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    pf->update(seenFromThreeMetresBack(0, 0.2));
+    pf->update(seenFromThreeMetresBack(1, 0.4));
+    pf->update(at(3, {0, -1, 0}, 0.6));
+    pf->noteViewJump(at(0, {}, 0.8).utime);
+    double s = 1;
+    for (int k = 0; k < 12 && (pf->kidnapped() || k < 6); ++k, s += 0.5)
+      pf->update(seenFromThreeMetresBack(k, s));
+    EXPECT_FALSE(pf->kidnapped());
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+    s += after_s;
+    int kidnaps = 0;
+    for (int k = 0; k < 8 && !pf->kidnapped(); ++k, s += 0.5)
+      kidnaps += pf->update(k % 2 ? at(2, {-5, 1, 0}, s) : at(1, {-4, 0, 0}, s)).kidnap_detected;
+    EXPECT_EQ(kidnaps, 1);
+    EXPECT_FALSE(pf->robotWasMoved());
+    bool recovered = false;
+    for (int k = 0; k < 2; ++k, s += 0.5)
+      recovered =
+          pf->update(k % 2 ? at(2, {-5, 1, 0}, s) : at(1, {-4, 0, 0}, s)).recovered || recovered;
+    return recovered;
+  };
+  EXPECT_TRUE(second(0.0));
+  EXPECT_FALSE(second(30.0));
+}
+
 TEST(ParticleFilter, AKnownLookAlikesInconsistentMeasurementWeighsNoParticle) {
   // Landmarks 1 and 2 were twice recognised on a look-alike wall (runs of
   // inconsistent measurements that landmark 3 contradicted): they are known
