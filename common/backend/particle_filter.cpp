@@ -565,7 +565,8 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         }
         rep->kidnap_detected = true;
         robot_was_moved_ = recentViewJump(obs.utime);
-        view_jump_utime_ = std::numeric_limits<int64_t>::min();  // it did its work
+        view_jump_utime_ = jumps_since_utime_ =
+            std::numeric_limits<int64_t>::min();  // they did their work
         chooseRetestCandidates(to);
         // The measurements that declared it stay in the relocalization's
         // window: they say where the robot is.
@@ -718,6 +719,12 @@ void ParticleFilter::endLowRun() {
 }
 
 void ParticleFilter::noteViewJump(int64_t t) {
+  // A jump within the window of the one before continues its series: the
+  // robot can be carried, then turned or carried on (reporting home 1010: a
+  // second jump 4.4 s after the carry; landmarks placed between the two then
+  // ended every run of inconsistent measurements, and the carry was declared
+  // after 15.6 s).
+  if (!recentViewJump(t)) jumps_since_utime_ = t;
   view_jump_utime_ = std::max(view_jump_utime_, t);
   if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) robot_was_moved_ = true;
 }
@@ -737,7 +744,7 @@ bool ParticleFilter::recentlyRelocalizedAfterAMove(int64_t t) const {
 }
 
 bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
-  return !(recentViewJump(t) && placed_utime_[slot] >= view_jump_utime_);
+  return !(recentViewJump(t) && placed_utime_[slot] >= jumps_since_utime_);
 }
 
 double ParticleFilter::noteUnused(const Observation& obs) {

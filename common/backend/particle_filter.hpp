@@ -432,8 +432,8 @@ class ParticleFilter {
   // landmark in it was seen somewhere it is not.
   void endLowRun();
   // Whether a consistent measurement of `slot` at t may end the run: not if
-  // the landmark was placed since a view jump less than
-  // view_jump_window_s before t.
+  // the landmark was placed since the first of a series of view jumps whose
+  // latest is less than view_jump_window_s before t.
   bool endsLowRun(uint32_t slot, int64_t t) const;
   // since (min: never) is no more than view_jump_window_s (0: off) before t.
   bool withinViewJumpWindow(int64_t since, int64_t t) const;
@@ -469,7 +469,10 @@ class ParticleFilter {
   bool kidnapped_ = false;
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
-  bool robot_was_moved_ = false;                                   // robotWasMoved()
+  // The first of the latest series of view jumps, each within
+  // view_jump_window_s of the one before.
+  int64_t jumps_since_utime_ = std::numeric_limits<int64_t>::min();
+  bool robot_was_moved_ = false;  // robotWasMoved()
   // The latest relocalization of a robot known to have been moved.
   int64_t moved_relocalized_utime_ = std::numeric_limits<int64_t>::min();
   // While kidnapped: the measurements of the last recover_window_s, from

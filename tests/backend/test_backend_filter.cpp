@@ -1208,15 +1208,19 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   // landmark 4 (placed since the jump) ends none, and the kidnapping is
   // declared and relocalized. Landmark 3, placed before the jump, still
   // ends runs: a look-alike seen while the robot also sees its old
-  // surroundings is no kidnapping, jump or not.
+  // surroundings is no kidnapping, jump or not. A second jump soon after
+  // the first (the robot carried on, or turned) continues the series:
+  // landmark 4, placed between the two, still ends no run.
   const auto at = observationAt;
   const int64_t jump_utime = at(0, {}, 1.0).utime;
-  auto run = [&](bool jumped, int64_t consistent_landmark, int* kidnaps, bool* recovered) {
+  auto run = [&](bool jumped, int64_t consistent_landmark, int* kidnaps, bool* recovered,
+                 bool jumped_again = false) {
     FilterParams p = homeParams(200);
     p.kidnap.view_jump_window_s = 20.0;
     auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
     if (jumped) pf->noteViewJump(jump_utime);
     EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 1.0)).kind, UpdateKind::kInitialized);
+    if (jumped_again) pf->noteViewJump(at(0, {}, 1.2).utime);
     const Pose2 consistent = consistent_landmark == 4 ? Pose2{0.5, 0, 0} : Pose2{0, -1, 0};
     *kidnaps = 0;
     *recovered = false;
@@ -1236,6 +1240,10 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   EXPECT_TRUE(recovered);
   EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
   EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+
+  run(true, 4, &kidnaps, &recovered, true);  // and a second jump after landmark 4
+  EXPECT_EQ(kidnaps, 1);
+  EXPECT_TRUE(recovered);
 
   run(false, 4, &kidnaps, &recovered);  // the control: no view jump
   EXPECT_EQ(kidnaps, 0);
