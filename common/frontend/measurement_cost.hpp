@@ -19,9 +19,12 @@
 
 namespace vslam::frontend {
 
-struct ReprojectionCost {
-  ReprojectionCost(const Eigen::Vector3d& point, const Eigen::Vector2d& normalized, double fx,
-                   double fy)
+// Not ReprojectionCost: that is the bundle adjustments' (reprojection_cost.hpp),
+// and two classes of one name broke the one-definition rule (an
+// AddressSanitizer build at -Og deleted this one with the other's size).
+struct PoseReprojectionCost {
+  PoseReprojectionCost(const Eigen::Vector3d& point, const Eigen::Vector2d& normalized, double fx,
+                       double fy)
       : point_(point), normalized_(normalized), fx_(fx), fy_(fy) {}
 
   template <typename T>
@@ -42,8 +45,8 @@ struct ReprojectionCost {
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& point,
                                      const Eigen::Vector2d& normalized, double fx, double fy) {
-    return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 3, 3>(
-        new ReprojectionCost(point, normalized, fx, fy));
+    return new ceres::AutoDiffCostFunction<PoseReprojectionCost, 2, 3, 3>(
+        new PoseReprojectionCost(point, normalized, fx, fy));
   }
 
  private:

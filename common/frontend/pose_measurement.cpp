@@ -306,7 +306,8 @@ class MeasurementSteps {
       ceres::Problem problem(problem_options);
       for (int i : inliers_)
         problem.AddResidualBlock(
-            ReprojectionCost::Create(points_[i], obs_[i], camera_.fx, camera_.fy), &loss, w_, t_);
+            PoseReprojectionCost::Create(points_[i], obs_[i], camera_.fx, camera_.fy), &loss, w_,
+            t_);
       ceres::Solver::Summary summary;
       ceres::Solve(options, &problem, &summary);
       ++m_.refinement_rounds;

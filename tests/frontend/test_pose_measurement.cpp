@@ -331,7 +331,7 @@ TEST(PlanarProjection, YawXyAndOutOfPlaneParts) {
   EXPECT_TRUE(std::isinf(outOfPlane(T).slope));
 }
 
-TEST(ReprojectionCost, ZeroAtTruthAndJacobianMatchesCentralDifferences) {
+TEST(PoseReprojectionCost, ZeroAtTruthAndJacobianMatchesCentralDifferences) {
   const Eigen::Vector3d X(2.0, -0.4, 0.7);
   const double w[3] = {0.1, -0.3, 0.2}, t[3] = {0.05, 0.1, 1.5};
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -341,7 +341,7 @@ TEST(ReprojectionCost, ZeroAtTruthAndJacobianMatchesCentralDifferences) {
   T.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
   const Eigen::Vector3d p = T * X;
   const Eigen::Vector2d uv(p.x() / p.z(), p.y() / p.z());
-  std::unique_ptr<ceres::CostFunction> at_truth(ReprojectionCost::Create(X, uv, 300, 310));
+  std::unique_ptr<ceres::CostFunction> at_truth(PoseReprojectionCost::Create(X, uv, 300, 310));
   const double* params[2] = {w, t};
   double r[2];
   ASSERT_TRUE(at_truth->Evaluate(params, r, nullptr));
@@ -350,7 +350,7 @@ TEST(ReprojectionCost, ZeroAtTruthAndJacobianMatchesCentralDifferences) {
 
   // Off the truth by 0.01 in normalized units: residual is f * 0.01.
   std::unique_ptr<ceres::CostFunction> cost(
-      ReprojectionCost::Create(X, uv + Eigen::Vector2d(0.01, -0.02), 300, 310));
+      PoseReprojectionCost::Create(X, uv + Eigen::Vector2d(0.01, -0.02), 300, 310));
   double J_w[6], J_t[6];
   double* jac[2] = {J_w, J_t};
   ASSERT_TRUE(cost->Evaluate(params, r, jac));
