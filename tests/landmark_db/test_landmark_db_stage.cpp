@@ -273,12 +273,12 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   const auto stack = config::StackConfig::loadFile(source / "config/vslam.yaml");
   // The forward camera first measures a backward landmark at ~68 s.
   simulateApartment(dir, stack, 80);
-  replayFrontendsAndDb(dir, stack, dir / "run1.lcmlog");
+  replayFrontendsAndDb(dir, stack, dir / "run.lcmlog");
 
   std::map<int64_t, std::string> creator;  // global id -> camera
   std::set<std::pair<std::string, int64_t>> proposed, answered;
   std::vector<vslam::visual_measurement_t> measurements;
-  for (const auto& e : vslam::test::readLog(dir / "run1.lcmlog")) {
+  for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
     if (e.channel == "LANDMARK_PROPOSAL") {
       const auto u = decode<U>(e);
       EXPECT_EQ(u.op, U::OP_PROPOSED);
@@ -314,11 +314,9 @@ TEST(LandmarkDbStage, TwoFrontendsShareOneDatabaseOnRenderedFrames) {
   RecordProperty("measurements", static_cast<int>(measurements.size()));
   RecordProperty("cross_forward", cross["forward"]);
   RecordProperty("cross_backward", cross["backward"]);
-
-  // Deterministic: a second run gives the same bytes.
-  replayFrontendsAndDb(dir, stack, dir / "run2.lcmlog");
-  EXPECT_EQ(vslam::test::readFileBytes(dir / "run1.lcmlog"),
-            vslam::test::readFileBytes(dir / "run2.lcmlog"));
+  // That two replays of both front-ends and the DB give the same bytes is
+  // ReplayIsolation's check (tests/framework): a second 80 s replay here
+  // doubled the suite's longest test.
   fs::remove_all(dir);
 }
 
