@@ -45,6 +45,8 @@ void MapCorrectionParams::validate() const {
     throw std::invalid_argument("backend: map_correction landmark sigmas must be > 0");
   if (!(kidnap_jump_m > 0) || !(kidnap_jump_rad > 0))
     throw std::invalid_argument("backend: map_correction kidnap jump thresholds must be > 0");
+  if (!(kidnap_jump_mahalanobis_sq >= 0))
+    throw std::invalid_argument("backend: map_correction.kidnap_jump_mahalanobis_sq must be >= 0");
   if (!(creation_max_age_s > 0))
     throw std::invalid_argument("backend: map_correction.creation_max_age_s must be > 0");
   if (!(solve_result_after_s >= 0))
@@ -169,23 +171,61 @@ void Backend::joinOrBreakAfterKidnap() {
   // can the size of the jump. If the robot was moved, or the pose it
   // relocalized to is far from where the odometry carried the graph's
   // newest node, no odometry edge may join the nodes before and after.
+  // So can a jump nearer than that but beyond the odometry's noise over
+  // the robot's drift span: the odometry went wrong (a wheel slip).
   // Otherwise it was a loop closure, the most valuable constraint the graph
   // gets. (Tuning home 30: a carry of 1.5 m, relocalized 1.44 m from the
   // odometry's pose, was joined, and the graph pulled the estimate back.)
-  if (newest_graph_node_ < 0) return;
   const HistoryEntry& now = history_.back();
+  const OdometryAt at_now{now.reading.pose, now.distance_m, now.rotation_rad};
+  const DriftSpan span = robotDriftSpan(at_now);
+  drift_origin_ = {now.distance_m, now.rotation_rad};  // relocalized: pinned to the map again
+  if (newest_graph_node_ < 0) return;
   const Pose2 predicted =
       graph_->nodePose(newest_graph_node_)
           .compose(graph_->nodeOdometry(newest_graph_node_).pose.between(now.reading.pose));
   const Pose2 relocalized = filter_.estimate().mean;
-  const bool moved = filter_.robotWasMoved() ||
-                     std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y) >
-                         params_.map_correction.kidnap_jump_m ||
-                     std::abs(wrapAngle(relocalized.theta - predicted.theta)) >
-                         params_.map_correction.kidnap_jump_rad;
+  const double jump_m = std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y);
+  const double jump_rad = std::abs(wrapAngle(relocalized.theta - predicted.theta));
+  // The odometry's covariance over the drift span, as from a reading that
+  // far back (only the span's lengths matter to the motion model).
+  const OdometryAt span_start{now.reading.pose, now.distance_m - span.distance_m,
+                              now.rotation_rad - span.rotation_rad};
+  const PoseGraph::OdometrySigmas o = graph_->odometrySigmas(span_start, at_now);
+  const double jump_d2 =
+      jump_m * jump_m / (o.xy * o.xy) + jump_rad * jump_rad / (o.theta * o.theta);
+  const double gate_d2 = params_.map_correction.kidnap_jump_mahalanobis_sq;
+  const bool moved = filter_.robotWasMoved() || jump_m > params_.map_correction.kidnap_jump_m ||
+                     jump_rad > params_.map_correction.kidnap_jump_rad ||
+                     (gate_d2 > 0 && jump_d2 > gate_d2);
   if (moved) {
     graph_->breakOdometry(now.reading.utime);
     ++counters_.graph_odometry_breaks;
+  }
+}
+
+void Backend::noteConsistent(int64_t landmark_id, const OdometryAt& then, const Pose2& relative) {
+  // A measurement ties the robot to the landmark's creation pose about as
+  // well as odometry over the distance between them would (the graph's
+  // measurement sigma grows with that distance too); the robot and the
+  // landmark each take the smaller span of the two ways. So a landmark made
+  // a moment ago and tracked since pins nothing new, and one made when the
+  // robot was pinned, measured near its creation pose, closes a loop.
+  const double away_m = std::hypot(relative.x, relative.y);
+  const double away_rad = std::abs(relative.theta);
+  const auto it = landmark_drift_.find(landmark_id);
+  DriftSpan via_landmark = it != landmark_drift_.end() ? it->second : DriftSpan{};
+  via_landmark.distance_m += away_m;
+  via_landmark.rotation_rad += away_rad;
+  const DriftSpan robot = robotDriftSpan(then);
+  if (via_landmark.distance_m + via_landmark.rotation_rad < robot.distance_m + robot.rotation_rad) {
+    drift_origin_ = {then.distance_m - via_landmark.distance_m,
+                     then.rotation_rad - via_landmark.rotation_rad};
+  } else if (it != landmark_drift_.end()) {
+    const DriftSpan via_robot{robot.distance_m + away_m, robot.rotation_rad + away_rad};
+    if (via_robot.distance_m + via_robot.rotation_rad <
+        it->second.distance_m + it->second.rotation_rad)
+      it->second = via_robot;
   }
 }
 
@@ -215,12 +255,16 @@ bool Backend::addLandmarkCreation(int64_t landmark_id, int64_t created_utime) {
   }
   const int node = graph_->addNode(created_utime, *then, estimateAt(then->pose));
   graph_->addLandmark(landmark_id, node);
+  // A landmark's creation pose is as far from the map as the robot was.
+  const DriftSpan span = robotDriftSpan(*then);
+  landmark_drift_[landmark_id] = {std::max(0.0, span.distance_m), std::max(0.0, span.rotation_rad)};
   ++counters_.landmarks_in_graph;
   return true;
 }
 
 void Backend::addToGraph(const MeasurementInput& m, const OdometryAt& then, bool consistent) {
   if (!consistent || !graph_->hasLandmark(m.landmark_id)) return;
+  noteConsistent(m.landmark_id, then, m.relative);
   if (params_.map_correction.measurement_min_interval_s > 0) {
     const auto last = graph_last_used_.find(m.landmark_id);
     const auto min_us =
@@ -408,6 +452,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     // been moved: it would pull the graph there. The filter keeps it.
     graph_->removeLandmark(m.landmark_id);
     graph_last_used_.erase(m.landmark_id);
+    landmark_drift_.erase(m.landmark_id);
   }
   if (u.kidnap_detected) deferred_.clear();
   if (u.deferred) deferred_[m.landmark_id] = m;

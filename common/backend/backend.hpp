@@ -59,6 +59,13 @@ struct MapCorrectionParams {
   // view jump came with it (ParticleFilter::robotWasMoved).
   double kidnap_jump_m = 1.5;
   double kidnap_jump_rad = 30 * M_PI / 180;
+  // Nearer, it was still a move (a wheel slip: 0.6 m in a second or two)
+  // when the jump is beyond what the odometry's noise allows over the path
+  // since the map last pinned the robot (its drift span, below): squared
+  // Mahalanobis distance of the jump under the motion model's covariance
+  // over that path. A drift's loop closure comes after tens of metres of
+  // path with nothing old in view. 0: no test.
+  double kidnap_jump_mahalanobis_sq = 16.27;
   // Odometry kept to place a landmark's creation node: the front-end
   // announces a landmark after its third view, which may come many seconds
   // after the first (the creation pose) when the robot turns in place.
@@ -250,6 +257,22 @@ class Backend {
   std::unordered_map<int64_t, int64_t> graph_last_used_;  // landmark id -> utime in the graph
   int newest_graph_node_ = -1;      // the newest measurement's node in the graph...
   Pose2 newest_graph_node_filter_;  // ...and the filter's estimate there
+  // Drift span: the odometry (path driven, turned) since the map last
+  // pinned a pose, an upper bound standing in for its uncertainty against
+  // the map. The robot's grows as it drives and is zero after a
+  // relocalization; a landmark takes the robot's at its creation; a
+  // consistent measurement passes the smaller on (noteConsistent); a saved
+  // map's landmarks have none. Tells a slip from a drift's loop closure
+  // (kidnap_jump_mahalanobis_sq).
+  struct DriftSpan {
+    double distance_m = 0, rotation_rad = 0;
+  };
+  DriftSpan robotDriftSpan(const OdometryAt& at) const {
+    return {at.distance_m - drift_origin_.distance_m, at.rotation_rad - drift_origin_.rotation_rad};
+  }
+  void noteConsistent(int64_t landmark_id, const OdometryAt& then, const Pose2& relative);
+  DriftSpan drift_origin_;  // the odometry totals at which the robot's span was zero
+  std::unordered_map<int64_t, DriftSpan> landmark_drift_;
   // The solve in the background (solve_in_background): the copy it works on
   // and the newest node with the filter's estimate when it began.
   std::unique_ptr<PoseGraph> solving_graph_;

@@ -188,6 +188,14 @@ class PoseGraph {
     params_.sigma_rotation = sigma_rotation;
   }
 
+  // Standard deviations of the odometry between two readings, as the motion
+  // model: along-track noise growing with the distance d, the heading's
+  // random walk adding cross-track error growing with d^3.
+  struct OdometrySigmas {
+    double xy, theta;
+  };
+  OdometrySigmas odometrySigmas(const OdometryAt& a, const OdometryAt& b) const;
+
  private:
   struct Node {
     int64_t utime = 0;
@@ -210,14 +218,6 @@ class PoseGraph {
     int contradicting = 0;        // and beyond it
     double map_x[3] = {0, 0, 0};  // a map landmark's pose (a constant Ceres block)
   };
-  // Standard deviations of the odometry between two readings, as the motion
-  // model: along-track noise growing with the distance d, the heading's
-  // random walk adding cross-track error growing with d^3.
-  struct OdometrySigmas {
-    double xy, theta;
-  };
-  OdometrySigmas odometrySigmas(const OdometryAt& a, const OdometryAt& b) const;
-
   PoseGraphParams params_;
   std::vector<Node> nodes_;  // by id; removed ones (alive false) are reused
   std::vector<int> free_ids_;

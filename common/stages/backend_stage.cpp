@@ -172,6 +172,9 @@ ParamTable<backend::MapCorrectionParams> mapCorrectionTable() {
            "a relocalization this far from the odometry's prediction breaks the graph's odometry "
            "chain")
       .degrees("kidnap_jump_deg", &M::kidnap_jump_rad, InRange{1e-3, 180}, "...or this far turned")
+      .add("kidnap_jump_mahalanobis_sq", &M::kidnap_jump_mahalanobis_sq, InRange{0, 1e6}, "",
+           "...or beyond this squared Mahalanobis distance under the odometry's noise over the "
+           "path since the map last pinned the robot (a wheel slip); 0: no test")
       .add("landmark_sigma_xy_m", &M::landmark_sigma_xy_m, InRange{1e-4, 10}, "m",
            "covariance of the filter's landmarks after a correction, x and y")
       .degrees("landmark_sigma_theta_deg", &M::landmark_sigma_theta_rad, InRange{1e-3, 90},
