@@ -446,20 +446,27 @@ TEST(ParticleFilter, CorrectMapGivesEveryParticleOneCorrectedMapAndMovesThePoses
 
 namespace {
 
-// The synthetic world through a Backend; position errors after the first lap.
-std::vector<double> runBackend(bool map_correction, uint64_t seed, bool in_background = true) {
-  test::SyntheticParams sp;
-  sp.seed = seed;
-  test::SyntheticWorld world(sp);
-  world.build(3.0);
+// A back-end for the synthetic world: its noise, 10 % dual particles, the
+// graph's measurement model matching the measurements (map correction off).
+BackendParams syntheticBackendParams() {
   BackendParams p;
   p.filter.num_particles = 200;
   p.filter.motion = {0.03, 0.03};
   p.filter.measurement_sigma_xy_m = 0.05;
   p.filter.measurement_sigma_theta_rad = 0.02;
   p.filter.mixture.dual_ratio_min = p.filter.mixture.dual_ratio_max = 0.1;
-  p.map_correction.enabled = map_correction;
   p.map_correction.graph = syntheticGraphParams();
+  return p;
+}
+
+// The synthetic world through a Backend; position errors after the first lap.
+std::vector<double> runBackend(bool map_correction, uint64_t seed, bool in_background = true) {
+  test::SyntheticParams sp;
+  sp.seed = seed;
+  test::SyntheticWorld world(sp);
+  world.build(3.0);
+  BackendParams p = syntheticBackendParams();
+  p.map_correction.enabled = map_correction;
   p.map_correction.solve_in_background = in_background;
   Backend be(p);
   const double perimeter = 2 * (sp.width_m + sp.height_m);
@@ -640,17 +647,11 @@ FaultRun runWithOdometryFault(double slip_m, double bias_rad_per_m, double jump_
     if (t >= lap / 10 && t < lap) step.theta += bias_rad_per_m * std::hypot(step.x, step.y);
     odometry.push_back(odometry.back().compose(step));
   }
-  BackendParams p;
-  p.filter.num_particles = 200;
-  p.filter.motion = {0.03, 0.03};
-  p.filter.measurement_sigma_xy_m = 0.05;
-  p.filter.measurement_sigma_theta_rad = 0.02;
-  p.filter.mixture.dual_ratio_min = p.filter.mixture.dual_ratio_max = 0.1;
+  BackendParams p = syntheticBackendParams();
   p.filter.kidnap.detect_count = 4;
   p.filter.kidnap.detect_landmarks = 2;
   p.filter.kidnap.recover_landmarks = 2;
   p.map_correction.enabled = true;
-  p.map_correction.graph = syntheticGraphParams();
   p.map_correction.kidnap_jump_mahalanobis_sq = jump_gate_d2;
   Backend be(p);
   const size_t settled = (slip_m > 0 ? slip_tick : lap) + static_cast<size_t>(10 * sp.rate_hz);
