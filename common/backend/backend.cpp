@@ -165,7 +165,7 @@ Pose2 Backend::estimateAt(const Pose2& then) const {
   return filter_.estimate().mean.compose(d.inverse());
 }
 
-void Backend::joinOrBreakAfterKidnap() {
+std::optional<RelocalizationJoin> Backend::joinOrBreakAfterKidnap() {
   // Was it a kidnapping? The filter cannot tell one from a loop closure
   // after a long drift (paper 6.2); a view jump can (robotWasMoved), and so
   // can the size of the jump. If the robot was moved, or the pose it
@@ -180,28 +180,32 @@ void Backend::joinOrBreakAfterKidnap() {
   const OdometryAt at_now{now.reading.pose, now.distance_m, now.rotation_rad};
   const DriftSpan span = robotDriftSpan(at_now);
   drift_origin_ = {now.distance_m, now.rotation_rad};  // relocalized: pinned to the map again
-  if (newest_graph_node_ < 0) return;
+  if (newest_graph_node_ < 0) return std::nullopt;
   const Pose2 predicted =
       graph_->nodePose(newest_graph_node_)
           .compose(graph_->nodeOdometry(newest_graph_node_).pose.between(now.reading.pose));
   const Pose2 relocalized = filter_.estimate().mean;
-  const double jump_m = std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y);
-  const double jump_rad = std::abs(wrapAngle(relocalized.theta - predicted.theta));
+  RelocalizationJoin join;
+  join.jump_m = std::hypot(relocalized.x - predicted.x, relocalized.y - predicted.y);
+  join.jump_rad = std::abs(wrapAngle(relocalized.theta - predicted.theta));
+  join.span_m = span.distance_m;
+  join.span_rad = span.rotation_rad;
   // The odometry's covariance over the drift span, as from a reading that
   // far back (only the span's lengths matter to the motion model).
   const OdometryAt span_start{now.reading.pose, now.distance_m - span.distance_m,
                               now.rotation_rad - span.rotation_rad};
   const PoseGraph::OdometrySigmas o = graph_->odometrySigmas(span_start, at_now);
-  const double jump_d2 =
-      jump_m * jump_m / (o.xy * o.xy) + jump_rad * jump_rad / (o.theta * o.theta);
+  join.jump_mahalanobis_sq = join.jump_m * join.jump_m / (o.xy * o.xy) +
+                             join.jump_rad * join.jump_rad / (o.theta * o.theta);
   const double gate_d2 = params_.map_correction.kidnap_jump_mahalanobis_sq;
-  const bool moved = filter_.robotWasMoved() || jump_m > params_.map_correction.kidnap_jump_m ||
-                     jump_rad > params_.map_correction.kidnap_jump_rad ||
-                     (gate_d2 > 0 && jump_d2 > gate_d2);
-  if (moved) {
+  join.broken = filter_.robotWasMoved() || join.jump_m > params_.map_correction.kidnap_jump_m ||
+                join.jump_rad > params_.map_correction.kidnap_jump_rad ||
+                (gate_d2 > 0 && join.jump_mahalanobis_sq > gate_d2);
+  if (join.broken) {
     graph_->breakOdometry(now.reading.utime);
     ++counters_.graph_odometry_breaks;
   }
+  return join;
 }
 
 void Backend::noteConsistent(int64_t landmark_id, const OdometryAt& then, const Pose2& relative) {
@@ -466,7 +470,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   if (calibration_ && consistent && !u.suspect) calibrate(m, *then_odometry);
   if (u.recovered) mapDeferredLandmarks();
   if (graph_) {
-    if (u.recovered) joinOrBreakAfterKidnap();
+    if (u.recovered) result.join = joinOrBreakAfterKidnap();
     if (!filter_.kidnapped()) {
       addToGraph(m, *then_odometry,
                  u.kind == UpdateKind::kInitialized ||

@@ -136,10 +136,22 @@ enum class MeasurementUse {
 constexpr int kNumMeasurementUse = 8;
 const char* toString(MeasurementUse u);
 
+// What map correction made of a relocalization (Backend::joinOrBreakAfterKidnap).
+struct RelocalizationJoin {
+  bool broken = false;  // the graph's odometry chain was broken there (the robot was moved)
+  double jump_m = 0;    // the relocalized pose against the odometry's from the graph's newest node
+  double jump_rad = 0;
+  double span_m = 0;  // the robot's drift span then
+  double span_rad = 0;
+  double jump_mahalanobis_sq = 0;  // the jump under the odometry's covariance over that span
+};
+
 struct MeasurementResult {
   MeasurementStatus status = MeasurementStatus::kUnfiltered;  // pre-filter verdict
   MeasurementUse use = MeasurementUse::kRejected;
   UpdateReport update;  // valid when use == kUsed
+  // At a relocalization with map correction on (and a graph node to join to).
+  std::optional<RelocalizationJoin> join;
 };
 
 struct BackendCounters {
@@ -230,7 +242,7 @@ class Backend {
   // newest node it had: `solved_at` (that node's pose in the solution, or
   // the graph's) against the filter's estimate there when the solve began.
   void applyCorrection(const Pose2& solved_at, const Pose2& filter_at);
-  void joinOrBreakAfterKidnap();
+  std::optional<RelocalizationJoin> joinOrBreakAfterKidnap();
   // At a relocalization: the landmarks first seen while kidnapped, from
   // their newest measurement moved to now by the odometry since.
   void mapDeferredLandmarks();

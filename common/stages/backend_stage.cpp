@@ -595,6 +595,15 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
         log::info("relocalized at t ", msg.utime, ", measurement ", msg.seq, " of ", msg.camera,
                   " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
       }
+      if (r.join) {
+        log::info("map correction: ",
+                  r.join->broken ? "the robot was moved, the odometry chain is broken"
+                                 : "a loop closure, the odometry chain is kept",
+                  " (jump ", r.join->jump_m, " m, ", radToDeg(r.join->jump_rad),
+                  " deg from the odometry; drift span ", r.join->span_m, " m driven, ",
+                  radToDeg(r.join->span_rad), " deg turned; Mahalanobis^2 ",
+                  r.join->jump_mahalanobis_sq, ")");
+      }
       break;
     case MeasurementUse::kRejected:
       if (r.status == MeasurementStatus::kRejectedInvalid) {

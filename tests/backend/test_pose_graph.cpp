@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "backend/backend.hpp"
@@ -629,6 +630,7 @@ namespace {
 struct FaultRun {
   int64_t kidnaps = 0, recoveries = 0, odometry_breaks = 0;
   double median_error_after = 0;  // from 10 s after the fault's end to the end
+  std::optional<RelocalizationJoin> last_join;
 };
 
 FaultRun runWithOdometryFault(double slip_m, double bias_rad_per_m, double jump_gate_d2) {
@@ -656,6 +658,7 @@ FaultRun runWithOdometryFault(double slip_m, double bias_rad_per_m, double jump_
   Backend be(p);
   const size_t settled = (slip_m > 0 ? slip_tick : lap) + static_cast<size_t>(10 * sp.rate_hz);
   std::vector<double> errors;
+  FaultRun out;
   size_t next_landmark = 0, next_measurement = 0;
   const auto& meas = world.measurements();
   for (size_t t = 0; t < odometry.size(); ++t) {
@@ -664,12 +667,13 @@ FaultRun runWithOdometryFault(double slip_m, double bias_rad_per_m, double jump_
       be.addLandmarkCreation(world.landmarks()[next_landmark++].id, world.utime(t));
     while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
       const auto& m = meas[next_measurement++];
-      be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0});
+      const MeasurementResult r =
+          be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0});
+      if (r.join) out.last_join = r.join;
     }
     if (t > settled && t % 50 == 0)
       errors.push_back(positionError(be.filter().estimate().mean, world.truth()[t]));
   }
-  FaultRun out;
   out.kidnaps = be.counters().kidnaps_detected;
   out.recoveries = be.counters().recoveries;
   out.odometry_breaks = be.counters().graph_odometry_breaks;
@@ -690,6 +694,11 @@ TEST(Backend, AWheelSlipAmongMappedLandmarksBreaksTheGraphsOdometryChain) {
   EXPECT_GE(slip.recoveries, 1);
   EXPECT_EQ(slip.odometry_breaks, slip.recoveries);
   EXPECT_LT(slip.median_error_after, 0.08);
+  ASSERT_TRUE(slip.last_join.has_value());
+  EXPECT_TRUE(slip.last_join->broken);
+  EXPECT_LT(slip.last_join->jump_m, 1.0);  // under kidnap_jump_m: broken by the span's test
+  EXPECT_LT(slip.last_join->span_m, 4.0);
+  EXPECT_GT(slip.last_join->jump_mahalanobis_sq, 16.27);
   // The control: without the test the slip is joined as a loop closure.
   const FaultRun joined = runWithOdometryFault(0.6, 0, 0);
   EXPECT_GE(joined.recoveries, 1);
@@ -708,4 +717,8 @@ TEST(Backend, ALoopClosingAfterALongDriftStaysJoinedInTheGraph) {
   EXPECT_GE(drift.recoveries, 1);
   EXPECT_EQ(drift.odometry_breaks, 0);
   EXPECT_LT(drift.median_error_after, 0.08);
+  ASSERT_TRUE(drift.last_join.has_value());
+  EXPECT_FALSE(drift.last_join->broken);
+  EXPECT_GT(drift.last_join->span_m, 10.0);  // nothing old in view since the first 1.4 m
+  EXPECT_LT(drift.last_join->jump_mahalanobis_sq, 16.27);
 }
