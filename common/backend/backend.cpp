@@ -177,8 +177,7 @@ std::optional<RelocalizationJoin> Backend::joinOrBreakAfterKidnap() {
   // gets. (Tuning home 30: a carry of 1.5 m, relocalized 1.44 m from the
   // odometry's pose, was joined, and the graph pulled the estimate back.)
   const HistoryEntry& now = history_.back();
-  const OdometryAt at_now{now.reading.pose, now.distance_m, now.rotation_rad};
-  const DriftSpan span = robotDriftSpan(at_now);
+  const DriftSpan span = robotDriftSpan({now.reading.pose, now.distance_m, now.rotation_rad});
   drift_origin_ = {now.distance_m, now.rotation_rad};  // relocalized: pinned to the map again
   if (newest_graph_node_ < 0) return std::nullopt;
   const Pose2 predicted =
@@ -190,11 +189,7 @@ std::optional<RelocalizationJoin> Backend::joinOrBreakAfterKidnap() {
   join.jump_rad = std::abs(wrapAngle(relocalized.theta - predicted.theta));
   join.span_m = span.distance_m;
   join.span_rad = span.rotation_rad;
-  // The odometry's covariance over the drift span, as from a reading that
-  // far back (only the span's lengths matter to the motion model).
-  const OdometryAt span_start{now.reading.pose, now.distance_m - span.distance_m,
-                              now.rotation_rad - span.rotation_rad};
-  const PoseGraph::OdometrySigmas o = graph_->odometrySigmas(span_start, at_now);
+  const PoseGraph::OdometrySigmas o = graph_->odometrySigmas(span.distance_m, span.rotation_rad);
   join.jump_mahalanobis_sq = join.jump_m * join.jump_m / (o.xy * o.xy) +
                              join.jump_rad * join.jump_rad / (o.theta * o.theta);
   const double gate_d2 = params_.map_correction.kidnap_jump_mahalanobis_sq;
@@ -222,14 +217,12 @@ void Backend::noteConsistent(int64_t landmark_id, const OdometryAt& then, const 
   via_landmark.distance_m += away_m;
   via_landmark.rotation_rad += away_rad;
   const DriftSpan robot = robotDriftSpan(then);
-  if (via_landmark.distance_m + via_landmark.rotation_rad < robot.distance_m + robot.rotation_rad) {
+  if (via_landmark.size() < robot.size()) {
     drift_origin_ = {then.distance_m - via_landmark.distance_m,
                      then.rotation_rad - via_landmark.rotation_rad};
   } else if (it != landmark_drift_.end()) {
     const DriftSpan via_robot{robot.distance_m + away_m, robot.rotation_rad + away_rad};
-    if (via_robot.distance_m + via_robot.rotation_rad <
-        it->second.distance_m + it->second.rotation_rad)
-      it->second = via_robot;
+    if (via_robot.size() < it->second.size()) it->second = via_robot;
   }
 }
 

@@ -278,6 +278,7 @@ class Backend {
   // (kidnap_jump_mahalanobis_sq).
   struct DriftSpan {
     double distance_m = 0, rotation_rad = 0;
+    double size() const { return distance_m + rotation_rad; }  // to order two spans
   };
   DriftSpan robotDriftSpan(const OdometryAt& at) const {
     return {at.distance_m - drift_origin_.distance_m, at.rotation_rad - drift_origin_.rotation_rad};

@@ -260,8 +260,12 @@ void PoseGraph::addMapLandmark(int64_t landmark_id, const Pose2& pose) {
 
 PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(const OdometryAt& a,
                                                     const OdometryAt& b) const {
-  const double d = std::abs(b.distance_m - a.distance_m);
-  const double r = std::abs(b.rotation_rad - a.rotation_rad);
+  return odometrySigmas(b.distance_m - a.distance_m, b.rotation_rad - a.rotation_rad);
+}
+
+PoseGraph::OdometrySigmas PoseGraph::odometrySigmas(double distance_m, double rotation_rad) const {
+  const double d = std::abs(distance_m);
+  const double r = std::abs(rotation_rad);
   const double st2 = params_.sigma_translation * params_.sigma_translation;
   const double sr2 = params_.sigma_rotation * params_.sigma_rotation;
   // Small floors keep a standing robot's edge well-conditioned.

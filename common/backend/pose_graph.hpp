@@ -195,6 +195,8 @@ class PoseGraph {
     double xy, theta;
   };
   OdometrySigmas odometrySigmas(const OdometryAt& a, const OdometryAt& b) const;
+  // The same over a path of this length driven and turned.
+  OdometrySigmas odometrySigmas(double distance_m, double rotation_rad) const;
 
  private:
   struct Node {
