@@ -522,12 +522,13 @@ StepResult AppearanceSlam::step(const Pose2& action, const Snapshot& z) {
   for (size_t i = 0; i < hypotheses_.size(); ++i) {
     expand(hypotheses_[i], link, z, id, &children, &candidates, i == 0 ? &reachable : nullptr);
   }
-  // Seeds only while the most believed hypothesis holds the robot to be
-  // somewhere new, i.e. no mapped place explains its snapshots: a robot that
-  // is following its map needs none.
+  // Seeds only while no mapped place explains the snapshots: the most
+  // believed hypothesis held the robot to be somewhere new, or a new place
+  // leads this step (a robot that was following its map and was carried
+  // seeds at once, not one step later). A robot following its map needs none.
   const size_t seeds_from = children.size();
   if (params_.relocalization_candidates > 0 && params_.relocalization_prior > 0 &&
-      hypotheses_.front().node->is_new) {
+      (hypotheses_.front().node->is_new || newPlaceLeads(children))) {
     seedRelocalizations(hypotheses_.front(), z, reachable, &children);
   }
   StepResult r = select(std::move(children), id);
@@ -536,15 +537,40 @@ StepResult AppearanceSlam::step(const Pose2& action, const Snapshot& z) {
   return r;
 }
 
+double AppearanceSlam::maxLogWeight(const std::vector<Child>& children) {
+  double max_lw = -std::numeric_limits<double>::infinity();
+  for (const auto& c : children) {
+    if (std::isfinite(c.log_weight)) max_lw = std::max(max_lw, c.log_weight);
+  }
+  return max_lw;
+}
+
+bool AppearanceSlam::newPlaceLeads(const std::vector<Child>& children) {
+  // The belief of each place this step, as select ranks them: the children
+  // that end in the same state summed.
+  const double max_lw = maxLogWeight(children);
+  if (!std::isfinite(max_lw)) return false;
+  std::map<int64_t, double> at_state;
+  double new_place = 0;
+  for (const auto& c : children) {
+    if (!std::isfinite(c.log_weight)) continue;
+    const double w = std::exp(c.log_weight - max_lw);
+    if (c.is_new) {
+      new_place += w;
+    } else {
+      at_state[c.state_id] += w;
+    }
+  }
+  return std::all_of(at_state.begin(), at_state.end(),
+                     [&](const auto& place) { return place.second < new_place; });
+}
+
 StepResult AppearanceSlam::select(std::vector<Child> children, int64_t new_state) {
   StepResult r;
   r.step = step_;
   r.new_state_id = new_state;
   r.children = static_cast<int>(children.size());
-  double max_lw = -std::numeric_limits<double>::infinity();
-  for (const auto& c : children) {
-    if (std::isfinite(c.log_weight)) max_lw = std::max(max_lw, c.log_weight);
-  }
+  const double max_lw = maxLogWeight(children);
   std::vector<std::pair<double, size_t>> order;  // (belief, child)
   if (std::isfinite(max_lw)) {
     double total = 0;

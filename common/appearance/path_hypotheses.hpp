@@ -51,11 +51,13 @@
 // Relocalization seeds (an addition: the paper's tree only traces forward
 // from where a hypothesis believes the robot is, so a robot carried
 // elsewhere, or restarted in a saved map, never re-enters its map). Each
-// step in which the most believed hypothesis p holds the robot to be in a
-// new state (no mapped place explains its snapshot), p also gets a child
-// "put down in state x_k" for the relocalization_candidates states of its
-// map that look most like the snapshot, and clearly more like it than a new
-// place would (relocalization_match_ratio), but for those p's trace reaches
+// step in which no mapped place explains the snapshot (the most believed
+// hypothesis p held the robot to be in a new state, or "a new state" leads
+// among this step's children: a robot carried while it followed its map),
+// p also gets a child "put down in state x_k" for the
+// relocalization_candidates states of its map that look most like the
+// snapshot, and clearly more like it than a new place would
+// (relocalization_match_ratio), but for those p's trace reaches
 // or visited in its last relocalization_recent_visits steps (there the
 // trace decides; but a view that jumped, one that looks no more like p's
 // last state than a new place would, seeds those too: a carried robot is
@@ -335,6 +337,10 @@ class AppearanceSlam {
   double turnedDistance(const std::vector<Histogram>& z, const std::vector<Histogram>& state) const;
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
               std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);
+  static double maxLogWeight(const std::vector<Child>& children);  // -inf if none is finite
+  // True if no mapped place is likelier than "somewhere new" among this
+  // step's children (each place's children summed, as select ranks them).
+  static bool newPlaceLeads(const std::vector<Child>& children);
   void seedRelocalizations(const Hypothesis& h, const Snapshot& z,
                            const std::vector<int64_t>& reachable, std::vector<Child>* children);
   StepResult select(std::vector<Child> children, int64_t new_state);

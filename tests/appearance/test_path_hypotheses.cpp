@@ -436,6 +436,41 @@ TEST(RelocalizationSeeds, ACarriedRobotRelocalizesBesideTheStatesItJustMade) {
   EXPECT_LE(first_correct, 1) << "re-localized only at an older state";
 }
 
+// Carried while it follows its map: after the lap the robot drives on along
+// it (places 0 to 3, each a revisit), then it is put down at place 8 while
+// odometry says it went on to place 4. The revisits traced from place 3 do
+// not match, "a new place" leads that step, and the seeds come in the same
+// step, so the robot is back at place 8 at once (seeding only after the
+// most believed hypothesis had become a new place took one step more).
+TEST(RelocalizationSeeds, ARobotCarriedWhileFollowingItsMapIsSeededAtOnce) {
+  AppearanceSlam slam(seedingParams(), 1, kBins);
+  slam.setActionModel(model());
+  slam.initialize(noisyView(0, 0));
+  for (int i = 0; i < kPlaces - 1; ++i) slam.step(actionOf(kLap[i]), noisyView(i + 1, 0));
+  int place = 0;
+  StepResult r = slam.step(actionOf(kLap[kPlaces - 1]), noisyView(place, 1));
+  for (int k = 0; k < 3; ++k) {
+    const char a = kLap[place];
+    place = (place + 1) % kPlaces;
+    r = slam.step(actionOf(a), noisyView(place, 1));
+  }
+  ASSERT_FALSE(r.best().is_new_state) << "not following its map before the carry";
+  ASSERT_EQ(r.best().state_id, place);
+  // Odometry: on from place 3 to place 4. The robot: put down at place 8.
+  place = 8;
+  r = slam.step(actionOf(kLap[3]), noisyView(place, 2));
+  EXPECT_GT(r.relocalization_seeds, 0) << "no seed in the step of the carry";
+  EXPECT_FALSE(r.best().is_new_state) << "not back in the map at the carry's step";
+  EXPECT_EQ(r.best().state_id, place);
+  for (int k = 1; k <= 3; ++k) {
+    const char a = kLap[place];
+    place = (place + 1) % kPlaces;
+    r = slam.step(actionOf(a), noisyView(place, 2));
+    EXPECT_FALSE(r.best().is_new_state) << "lost again " << k << " steps after the carry";
+    EXPECT_EQ(r.best().state_id, place) << k << " steps after the carry";
+  }
+}
+
 // Carried to place FROM at the end of the lap (odometry: on to place 0). The
 // trace from the states' first visits, through the whole lap, still reaches
 // a place a metre or two from place 0, but only as an unlikely drive
