@@ -338,7 +338,7 @@ class AppearanceSlam {
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
               std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);
   static double maxLogWeight(const std::vector<Child>& children);  // -inf if none is finite
-  // True if no mapped place is likelier than "somewhere new" among this
+  // True if "somewhere new" is likelier than every mapped place among this
   // step's children (each place's children summed, as select ranks them).
   static bool newPlaceLeads(const std::vector<Child>& children);
   void seedRelocalizations(const Hypothesis& h, const Snapshot& z,
