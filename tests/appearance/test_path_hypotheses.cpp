@@ -449,11 +449,13 @@ TEST(RelocalizationSeeds, ARobotCarriedWhileFollowingItsMapIsSeededAtOnce) {
   for (int i = 0; i < kPlaces - 1; ++i) slam.step(actionOf(kLap[i]), noisyView(i + 1, 0));
   int place = 0;
   StepResult r = slam.step(actionOf(kLap[kPlaces - 1]), noisyView(place, 1));
-  for (int k = 0; k < 3; ++k) {
+  // One move along the lap from `place`, seen on the given visit.
+  const auto driveOn = [&](int visit) {
     const char a = kLap[place];
     place = (place + 1) % kPlaces;
-    r = slam.step(actionOf(a), noisyView(place, 1));
-  }
+    r = slam.step(actionOf(a), noisyView(place, visit));
+  };
+  for (int k = 0; k < 3; ++k) driveOn(1);
   ASSERT_FALSE(r.best().is_new_state) << "not following its map before the carry";
   ASSERT_EQ(r.best().state_id, place);
   // Odometry: on from place 3 to place 4. The robot: put down at place 8.
@@ -463,9 +465,7 @@ TEST(RelocalizationSeeds, ARobotCarriedWhileFollowingItsMapIsSeededAtOnce) {
   EXPECT_FALSE(r.best().is_new_state) << "not back in the map at the carry's step";
   EXPECT_EQ(r.best().state_id, place);
   for (int k = 1; k <= 3; ++k) {
-    const char a = kLap[place];
-    place = (place + 1) % kPlaces;
-    r = slam.step(actionOf(a), noisyView(place, 2));
+    driveOn(2);
     EXPECT_FALSE(r.best().is_new_state) << "lost again " << k << " steps after the carry";
     EXPECT_EQ(r.best().state_id, place) << k << " steps after the carry";
   }
