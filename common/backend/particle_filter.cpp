@@ -19,7 +19,14 @@ namespace vslam::backend {
 namespace {
 
 // What each random stream is for (part of its seed).
-enum Purpose : uint64_t { kMotion = 1, kDual = 2, kSelect = 3, kResample = 4, kMotionBefore = 5 };
+enum Purpose : uint64_t {
+  kMotion = 1,
+  kDual = 2,
+  kSelect = 3,
+  kResample = 4,
+  kMotionBefore = 5,
+  kStart = 6
+};
 
 // The newest measurements kept for the kidnap and relocalization tests:
 // their cost must not grow with a long run of inconsistent measurements
@@ -876,6 +883,28 @@ void ParticleFilter::setMotionNoise(const MotionNoise& noise) {
   if (!(noise.sigma_translation >= 0 && noise.sigma_rotation >= 0))
     throw std::invalid_argument("backend filter: motion sigmas must be >= 0");
   params_.motion = noise;
+}
+
+void ParticleFilter::startAt(const Pose2& mean, const Eigen::Matrix3d& covariance) {
+  if (!mean.isFinite() || !covariance.allFinite()) {
+    throw std::invalid_argument("backend filter: a start pose must be finite");
+  }
+  const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
+  if (llt.info() != Eigen::Success) {
+    throw std::invalid_argument("backend filter: a start covariance must be positive definite");
+  }
+  const Eigen::Matrix3d l = llt.matrixL();
+  const uint64_t k = step_++;
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    RandomStream rng(params_.seed, k, i, kStart);
+    const double n0 = rng.normal(), n1 = rng.normal(), n2 = rng.normal();
+    const Eigen::Vector3d d = l * Eigen::Vector3d(n0, n1, n2);
+    Particle& p = particles_[i];
+    p.pose = {mean.x + d.x(), mean.y + d.y(), wrapAngle(mean.theta + d.z())};
+    p.anchor = p.pose;
+    p.log_weight = 0;
+    p.dual = false;
+  }
 }
 
 void ParticleFilter::startKidnapped() {

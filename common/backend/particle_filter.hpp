@@ -312,6 +312,11 @@ class ParticleFilter {
   // Global relocalization (e.g. a saved map and an unknown start pose):
   // all-dual until the measurements confirm a pose.
   void startKidnapped();
+  // A start at a known pose in the map (a restarted back-end resuming where
+  // the robot was): the particles drawn from N(mean, covariance), equal
+  // weights. Before the first odometry. Throws std::invalid_argument unless
+  // mean is finite and covariance positive definite.
+  void startAt(const Pose2& mean, const Eigen::Matrix3d& covariance);
   // Landmarks currently marked as look-alikes (KidnapParams::suspect_after).
   size_t numSuspectLandmarks() const;
   bool isLookAlike(int64_t landmark_id) const {

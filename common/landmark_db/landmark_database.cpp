@@ -308,7 +308,22 @@ std::vector<Change> LandmarkDatabase::flush() {
   dirty_.clear();
   pose_dirty_.clear();
   if (!rows.empty()) store_->updateInfos(rows, revision_);
+  if (robot_estimate_dirty_) {
+    store_->saveRobotPose(robot_estimate_);
+    robot_estimate_dirty_ = false;
+  }
   return changes;
+}
+
+void LandmarkDatabase::noteRobotEstimate(const RobotPoseRecord& estimate, bool kidnapped) {
+  if (kidnapped) {
+    robot_estimate_dirty_ =
+        robot_estimate_dirty_ || robot_estimate_.has_value() || store_->robotPose().has_value();
+    robot_estimate_.reset();
+    return;
+  }
+  robot_estimate_ = estimate;
+  robot_estimate_dirty_ = true;
 }
 
 RegionKey LandmarkDatabase::regionOf(const Pose2& p) const {

@@ -127,8 +127,14 @@ class LandmarkDatabase {
   bool recordVerdict(int64_t id, bool accepted, Utime utime);
   // Positions from the back-end's map; returns how many ids were known.
   int setMapPoses(const std::vector<std::pair<int64_t, Pose2>>& poses);
+  // The localizer's newest estimate (and whether it believed the robot
+  // kidnapped then): kept as the map file's robot pose, what a restarted
+  // back-end resumes from. A kidnapped estimate clears it: the robot is
+  // somewhere the estimate does not say. Written by flush().
+  void noteRobotEstimate(const RobotPoseRecord& estimate, bool kidnapped);
   // Writes changed statistics and positions in one transaction; one stats-only
-  // kUpdated per landmark whose statistics changed.
+  // kUpdated per landmark whose statistics changed. Then the robot pose, if
+  // a newer estimate came.
   std::vector<Change> flush();
 
   // Removes landmarks by the pruning policy (judged at robot time `now`);
@@ -180,6 +186,8 @@ class LandmarkDatabase {
   std::set<int64_t> dirty_;       // statistics changed: new version, published
   std::set<int64_t> pose_dirty_;  // only the map position changed: written, not published
   std::optional<Pose2> robot_;
+  std::optional<RobotPoseRecord> robot_estimate_;  // noteRobotEstimate's newest
+  bool robot_estimate_dirty_ = false;
   std::optional<Pose2> evaluated_at_;
 };
 

@@ -16,6 +16,33 @@ namespace vslam::landmark_db {
 namespace {
 
 constexpr const char* kFormat = "vslam-landmark-map";
+constexpr const char* kRobotPoseKey = "robot_pose";
+
+std::string formatRobotPose(const RobotPoseRecord& r) {
+  std::ostringstream out;
+  out.precision(17);
+  out << r.utime << ' ' << r.map_pose.x << ' ' << r.map_pose.y << ' ' << r.map_pose.theta << ' '
+      << r.odom_pose.x << ' ' << r.odom_pose.y << ' ' << r.odom_pose.theta;
+  for (double c : r.covariance) out << ' ' << c;
+  return out.str();
+}
+
+// nullopt unless all 16 numbers are there and finite.
+std::optional<RobotPoseRecord> parseRobotPose(const std::string& text) {
+  std::istringstream in(text);
+  RobotPoseRecord r;
+  in >> r.utime >> r.map_pose.x >> r.map_pose.y >> r.map_pose.theta >> r.odom_pose.x >>
+      r.odom_pose.y >> r.odom_pose.theta;
+  for (double& c : r.covariance) in >> c;
+  std::string rest;
+  if (in.fail() || (in >> rest) || !r.map_pose.isFinite() || !r.odom_pose.isFinite()) {
+    return std::nullopt;
+  }
+  for (double c : r.covariance) {
+    if (!std::isfinite(c)) return std::nullopt;
+  }
+  return r;
+}
 
 static_assert(sizeof(float) == 4, "blobs are float32");
 
@@ -242,6 +269,8 @@ void LandmarkStore::readMeta() {
   } catch (const std::exception&) {
     throw MapFileError(file_ + ": meta table incomplete or not numeric");
   }
+  const auto pose = meta.find(kRobotPoseKey);
+  robot_pose_ = pose == meta.end() ? std::nullopt : parseRobotPose(pose->second);
   // next_id never falls below what the table holds (belt and braces).
   Statement s(*db_, "SELECT COALESCE(MAX(landmark_id), 0) FROM landmarks");
   if (s.step()) next_id_ = std::max(next_id_, s.int64(0) + 1);
@@ -252,6 +281,21 @@ void LandmarkStore::writeMetaValue(const char* key, const std::string& value) {
   s.bind(":value", value);
   s.bind(":key", std::string(key));
   s.run();
+}
+
+void LandmarkStore::saveRobotPose(const std::optional<RobotPoseRecord>& pose) {
+  if (read_only_) throw MapFileError(file_ + ": opened read-only");
+  if (pose) {
+    Statement s(*db_, "INSERT OR REPLACE INTO meta (key, value) VALUES (:key, :value)");
+    s.bind(":key", std::string(kRobotPoseKey));
+    s.bind(":value", formatRobotPose(*pose));
+    s.run();
+  } else {
+    Statement s(*db_, "DELETE FROM meta WHERE key = :key");
+    s.bind(":key", std::string(kRobotPoseKey));
+    s.run();
+  }
+  robot_pose_ = pose;
 }
 
 void LandmarkStore::writeTransaction(int64_t revision, const std::function<void()>& body) {

@@ -9,7 +9,9 @@
 //   PRAGMA application_id = 0x764C4D44 ('vLMD'), PRAGMA user_version = 1
 //   meta(key TEXT PRIMARY KEY, value TEXT)
 //     format = "vslam-landmark-map", schema = "1", database_id, revision,
-//     next_id, created_utime
+//     next_id, created_utime; robot_pose (optional, RobotPoseRecord: where the
+//     robot last was, "utime x y theta odom_x odom_y odom_theta" and the 9
+//     covariance entries, space-separated)
 //   landmarks(landmark_id INTEGER PRIMARY KEY, camera, proposal_id, version,
 //     revision, created_utime, odom_x, odom_y, odom_theta, num_points,
 //     descriptor_size, points BLOB, keypoints BLOB, scales BLOB,
@@ -21,6 +23,7 @@
 //
 // ":memory:" (or an empty path) is a private in-memory database: nothing persists.
 
+#include <array>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -62,6 +65,15 @@ struct StoreOptions {
   uint64_t max_file_bytes = 0;
 };
 
+// Where the robot last was in this map, as its localizer estimated it: what a
+// restarted back-end resumes from (docs/landmark-db.md, "Map file").
+struct RobotPoseRecord {
+  Utime utime = 0;                     // the estimate's robot time
+  Pose2 map_pose;                      // the estimate, map frame
+  Pose2 odom_pose;                     // the odometry reading it was made at, odometry frame
+  std::array<double, 9> covariance{};  // of map_pose, row-major (m^2, m rad, rad^2)
+};
+
 class LandmarkStore {
  public:
   // Throws MapFileError naming the file and what is wrong.
@@ -93,6 +105,12 @@ class LandmarkStore {
                     int64_t revision);
   void remove(const std::vector<int64_t>& ids, int64_t revision);
   void setRevision(int64_t revision);
+  // The robot's last pose: one durable write, no new revision (no landmark
+  // changes). nullopt clears it.
+  void saveRobotPose(const std::optional<RobotPoseRecord>& pose);
+  // As read when the file was opened, or last saved; nullopt if none (or
+  // unreadable: a damaged value is not worth refusing the map for).
+  const std::optional<RobotPoseRecord>& robotPose() const { return robot_pose_; }
 
   // "ok", or SQLite's list of problems.
   std::string integrityCheck();
@@ -117,6 +135,7 @@ class LandmarkStore {
   int64_t revision_ = 0;
   int64_t next_id_ = 1;
   Utime created_utime_ = 0;
+  std::optional<RobotPoseRecord> robot_pose_;
   double commit_ms_sum_ = 0;
   int64_t commit_count_ = 0;
 };

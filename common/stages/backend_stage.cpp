@@ -335,6 +335,11 @@ const ParamTable<BackendStageParams>& BackendStageParams::table() {
                 "`origin`: the robot starts at the map's origin (where its first run started); "
                 "`unknown`: global relocalization, all dual particles from the first measurements "
                 "until confirmed")
+        .add("map_prior_resume_max_gap_s", &P::map_prior_resume_max_gap_s, InRange{0, 86400}, "s",
+             "a map file holding the robot's last pose (the landmark DB saves the back-end's "
+             "estimates), saved at most this long before the first odometry (robot time): the "
+             "back-end resumes there, whatever `map_prior_start` says (a restart after a crash; "
+             "a wrong resume is a kidnapping to the filter); 0: never")
         .add("map_rate_hz", &P::map_rate_hz, InRange{0, 100}, "Hz",
              "`MAP` messages per second of robot time (0: none)")
         .add("particles_rate_hz", &P::particles_rate_hz, InRange{0, 100}, "Hz",
@@ -439,7 +444,12 @@ void BackendStage::loadMapPrior() {
   }
   backend_.loadMap(known);
   prior_landmarks_ = known.size();
-  if (params_.map_prior_unknown_start && !known.empty()) backend_.filter().startKidnapped();
+  if (!known.empty()) {
+    // A saved robot pose is judged at the first odometry (is it recent?).
+    saved_robot_pose_ = store.robotPose();
+    start_pending_ = saved_robot_pose_ && params_.map_prior_resume_max_gap_s > 0;
+    if (!start_pending_ && params_.map_prior_unknown_start) backend_.filter().startKidnapped();
+  }
   params_.database_id = store.databaseId();
   if (known.empty()) {
     log::warn("map prior ", params_.map_prior_file.string(),
@@ -512,8 +522,43 @@ void BackendStage::logLimited(LogReason reason, const Args&... args) {
   warnings_.warn(reason, ctx_->clock.now(), args...);
 }
 
+void BackendStage::chooseStart(const vslam::odometry_t& first) {
+  start_pending_ = false;
+  const landmark_db::RobotPoseRecord& saved = *saved_robot_pose_;
+  const double gap_s = 1e-6 * static_cast<double>(first.utime - saved.utime);
+  if (gap_s < 0 || gap_s > params_.map_prior_resume_max_gap_s) {
+    log::info("the map file's robot pose was saved ", gap_s,
+              " s before the first odometry (robot time): not resumed");
+  } else {
+    // The odometry frame is the one the pose was saved in (the back-end
+    // restarted, not the odometry), so map<-odom still holds.
+    const Pose2 map_T_odom = saved.map_pose.compose(saved.odom_pose.inverse());
+    const Pose2 pose = map_T_odom.compose(Pose2{first.x, first.y, first.theta});
+    // The saved uncertainty, and the map's own (the landmarks' prior).
+    Eigen::Matrix3d covariance =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(saved.covariance.data());
+    covariance(0, 0) += params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
+    covariance(1, 1) += params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
+    covariance(2, 2) += params_.map_prior_sigma_theta_rad * params_.map_prior_sigma_theta_rad;
+    try {
+      backend_.filter().startAt(pose, covariance);
+      resumed_ = true;
+      log::info("resumed at the robot pose the map file saved ", gap_s,
+                " s before the first odometry: (", pose.x, ", ", pose.y, ", ", radToDeg(pose.theta),
+                " deg)");
+      return;
+    } catch (const std::invalid_argument& e) {
+      log::warn("the map file's robot pose cannot start the filter: ", e.what());
+    }
+  }
+  if (params_.map_prior_unknown_start) backend_.filter().startKidnapped();
+}
+
 void BackendStage::onOdometry(const vslam::odometry_t& msg) {
   odometry_watchdog_->arrived(ctx_->clock.now(), msg.utime);
+  if (start_pending_ && std::isfinite(msg.x) && std::isfinite(msg.y) && std::isfinite(msg.theta)) {
+    chooseStart(msg);
+  }
   using Outcome = OdometryIncrements::Outcome;
   const Outcome outcome = backend_.addOdometry({msg.utime, msg.seq, {msg.x, msg.y, msg.theta}});
   switch (outcome) {
@@ -721,6 +766,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
         static_cast<double>(c.status[s]), "count");
   }
   report.add("view_jumps", static_cast<double>(view_jumps_), "count");
+  report.add("resumed_at_saved_pose", resumed_ ? 1.0 : 0.0, "bool");
   report.add("measurements_used",
              static_cast<double>(c.use[static_cast<int>(MeasurementUse::kUsed)]), "count");
   report.add("measurements_unused_landmark_id",

@@ -18,6 +18,7 @@
 #include <array>
 #include <atomic>
 #include <filesystem>
+#include <optional>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/odometry_t.hpp>
 #include <vslam/view_jump_t.hpp>
@@ -28,6 +29,7 @@
 #include "bus/repeat_filter.hpp"
 #include "bus/stage.hpp"
 #include "bus/stage_registry.hpp"
+#include "landmark_db/landmark_store.hpp"
 #include "util/log.hpp"
 
 namespace vslam::stages {
@@ -65,6 +67,11 @@ struct BackendStageParams {
   // run that built it), or unknown, relocalized globally from the first
   // measurements (all dual particles until confirmed).
   bool map_prior_unknown_start = false;
+  // A map file that holds the robot's last pose (the landmark DB saves the
+  // back-end's estimates) saved at most this long before the first
+  // odometry, robot time: the back-end resumes there instead (a restart
+  // after a crash, its odometry frame unchanged). 0: never.
+  double map_prior_resume_max_gap_s = 30.0;
 
   // The keys of the block, declared once (config/param_table.hpp).
   static const config::ParamTable<BackendStageParams>& table();
@@ -101,10 +108,16 @@ class BackendStage final : public bus::Stage {
   void logLimited(LogReason reason, const Args&... args);
 
   void loadMapPrior();
+  // At the first odometry reading with a map prior: resume at the map file's
+  // robot pose if it is recent enough, else start as map_prior_start says.
+  void chooseStart(const vslam::odometry_t& first);
 
   BackendStageParams params_;
   backend::Backend backend_;
   size_t prior_landmarks_ = 0;
+  bool start_pending_ = false;  // a map prior is loaded, the first odometry not yet in
+  std::optional<landmark_db::RobotPoseRecord> saved_robot_pose_;  // the map file's
+  bool resumed_ = false;  // started at saved_robot_pose_ (health)
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
   Utime next_map_ = 0, next_particles_ = 0;

@@ -419,6 +419,12 @@ void LandmarkDbStage::onPose(const vslam::pose_estimate_t& msg) {
   last_time_ = std::max(last_time_, msg.utime);
   map_T_odom_ = map_pose.compose(odom_pose.inverse());
   db_->setRobotPose(map_pose);
+  landmark_db::RobotPoseRecord estimate{msg.utime, map_pose, odom_pose, {}};
+  std::copy(std::begin(msg.covariance), std::end(msg.covariance), estimate.covariance.begin());
+  if (std::all_of(estimate.covariance.begin(), estimate.covariance.end(),
+                  [](double c) { return std::isfinite(c); })) {
+    db_->noteRobotEstimate(estimate, msg.kidnapped);
+  }
   try {
     publish(db_->updateActiveSet(), ctx_->clock.now());
   } catch (const std::exception& e) {

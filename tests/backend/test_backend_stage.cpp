@@ -752,6 +752,65 @@ TEST(BackendStage, PublishesNoMapUntilItHasRelocalized) {
   fs::remove_all(dir);
 }
 
+// A back-end restarted in mid run (a crash, the odometry running on)
+// resumed nowhere: it relocalized globally, which waits for two mapped
+// landmarks (27-39 s in four of the tuning homes' 28 restarts). The landmark
+// DB keeps the back-end's last estimate in the map file; a back-end whose
+// first odometry comes soon after it resumes there, in the same odometry
+// frame. An old one (a new session: the robot may be anywhere) does not.
+TEST(BackendStage, ARestartedBackendResumesAtTheRobotPoseTheMapFileSaved) {
+  const fs::path dir = vslam::test::scratchDir("backend_resume");
+  const std::map<int64_t, Pose2> poses = {{1, {1.0, 2.0, 0.5}}, {2, {3.0, 0.5, 2.0}}};
+  const int64_t t0 = 1767225600LL * kMicrosPerSecond;
+  // Saved at t0: the robot at (2.2, 1.4, 1.0) in the map, odometry reading (5, -1, 0.3).
+  const Pose2 saved_map{2.2, 1.4, 1.0}, saved_odom{5.0, -1.0, 0.3};
+  // Then it drove 0.8 m on and turned a little before the back-end's first odometry.
+  const Pose2 odom_now = saved_odom.compose({0.8, 0.1, 0.2});
+  const Pose2 expected = saved_map.compose(saved_odom.between(odom_now));
+  auto first_estimate = [&](double gap_s) {
+    fs::remove(dir / "landmarks.vslam-map");
+    writePriorMap(dir / "landmarks.vslam-map", poses, 2);
+    {
+      landmark_db::LandmarkStore store(dir / "landmarks.vslam-map", {});
+      store.saveRobotPose(landmark_db::RobotPoseRecord{
+          t0, saved_map, saved_odom, {0.01 * 0.01, 0, 0, 0, 0.01 * 0.01, 0, 0, 0, 1e-4}});
+    }
+    writeBackendConfig(dir / "vslam.yaml",
+                       "num_particles: 100\nmap_prior_file: landmarks.vslam-map\n"
+                       "map_prior_start: unknown\nmap_prior_resume_max_gap_s: 30\n");
+    {
+      bus::LogWriter log(dir / "in.lcmlog");
+      for (int k = 0; k < 10; ++k) {
+        vslam::odometry_t o{};
+        o.utime = t0 + static_cast<int64_t>(gap_s * 1e6) + k * 20'000;
+        o.seq = 1000 + k;
+        o.x = odom_now.x;
+        o.y = odom_now.y;
+        o.theta = odom_now.theta;
+        log.writeMessage(o.utime, "ODOMETRY", o);
+      }
+    }
+    replayBackend(config::StackConfig::loadFile(dir / "vslam.yaml"), dir);
+    for (const auto& e : vslam::test::readLog(dir / "out.lcmlog")) {
+      if (e.channel == "POSE_ESTIMATE") return decode<vslam::pose_estimate_t>(e);
+    }
+    ADD_FAILURE() << "no POSE_ESTIMATE";
+    return vslam::pose_estimate_t{};
+  };
+
+  const auto resumed = first_estimate(2.0);
+  EXPECT_FALSE(resumed.kidnapped);
+  EXPECT_NEAR(resumed.x, expected.x, 0.05);
+  EXPECT_NEAR(resumed.y, expected.y, 0.05);
+  EXPECT_NEAR(wrapAngle(resumed.theta - expected.theta), 0.0, 0.05);
+  EXPECT_GT(resumed.covariance[0], 0.01 * 0.01) << "the saved and the map's uncertainty";
+  EXPECT_LT(resumed.covariance[0], 0.1 * 0.1);
+
+  EXPECT_TRUE(first_estimate(100.0).kidnapped) << "an old pose: relocalized globally";
+  EXPECT_TRUE(first_estimate(-50.0).kidnapped) << "a pose from after the start: another run's";
+  fs::remove_all(dir);
+}
+
 // Issue 19: a back-end left without odometry for 12 s logged nothing. Here
 // odometry stops for 6 s of log time while measurements keep the clock
 // going: health reports the silence and warns, and clears when it resumes.

@@ -459,6 +459,53 @@ TEST_F(LandmarkDbTest, MapPosesFromTheBackendMoveLandmarksBetweenRegions) {
   EXPECT_NEAR(reopened->info(r.id)->map_pose.x, -3.0, 1e-12);
 }
 
+// A restarted back-end resumes where the robot was: the DB keeps the
+// back-end's newest estimate in the map file, written with the statistics,
+// and forgets it while the back-end believes the robot kidnapped.
+TEST_F(LandmarkDbTest, KeepsTheRobotsLastPoseUntilTheRobotIsKidnapped) {
+  const fs::path file = dir_ / "map.vslam-map";
+  RobotPoseRecord estimate{kT0 + 5'000'000, {1.5, -2.0, 0.7}, {0.3, 0.1, -0.2}, {}};
+  estimate.covariance = {0.01, 0.001, 0, 0.001, 0.02, 0, 0, 0, 0.003};
+  {
+    auto db = openDb(file);
+    EXPECT_FALSE(db->store().robotPose()) << "a new map has no robot pose";
+    db->noteRobotEstimate(estimate, false);
+    EXPECT_FALSE(db->store().robotPose()) << "written with the statistics, not at once";
+    db->flush();
+  }
+  {
+    auto db = openDb(file);
+    const auto& saved = db->store().robotPose();
+    ASSERT_TRUE(saved);
+    EXPECT_EQ(saved->utime, estimate.utime);
+    EXPECT_EQ(saved->map_pose.x, 1.5);
+    EXPECT_EQ(saved->map_pose.theta, 0.7);
+    EXPECT_EQ(saved->odom_pose.y, 0.1);
+    EXPECT_EQ(saved->covariance, estimate.covariance) << "written to full precision";
+    estimate.utime += 1'000'000;
+    db->noteRobotEstimate(estimate, true);  // the back-end lost the robot
+    db->flush();
+    EXPECT_FALSE(db->store().robotPose());
+  }
+  EXPECT_FALSE(openDb(file)->store().robotPose()) << "a kidnapped robot's pose is not resumed";
+
+  // A damaged value is no robot pose, not a damaged map.
+  {
+    auto db = openDb(file);
+    db->noteRobotEstimate(estimate, false);
+    db->flush();
+  }
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open(file.c_str(), &raw), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(raw, "UPDATE meta SET value = '12 1.0 nan' WHERE key = 'robot_pose'",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(raw);
+  auto db = openDb(file);
+  EXPECT_FALSE(db->store().robotPose());
+  EXPECT_EQ(db->numStored(), 0u);
+}
+
 // vslam-map's command line: option values after the option or as
 // --key=value, the stack config from --config or $VSLAM_CONFIG.
 TEST_F(LandmarkDbTest, MapToolReadsOptionsAndTheConfigFromTheEnvironment) {
