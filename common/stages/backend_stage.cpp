@@ -525,7 +525,8 @@ void BackendStage::logLimited(LogReason reason, const Args&... args) {
 void BackendStage::chooseStart(const vslam::odometry_t& first) {
   start_pending_ = false;
   const landmark_db::RobotPoseRecord& saved = *saved_robot_pose_;
-  const double gap_s = 1e-6 * static_cast<double>(first.utime - saved.utime);
+  // In double: a damaged file's utime must not overflow the subtraction.
+  const double gap_s = 1e-6 * (static_cast<double>(first.utime) - static_cast<double>(saved.utime));
   if (gap_s < 0 || gap_s > params_.map_prior_resume_max_gap_s) {
     log::info("the map file's robot pose was saved ", gap_s,
               " s before the first odometry (robot time): not resumed");
