@@ -15,6 +15,7 @@
 #include <vslam/landmark_request_t.hpp>
 #include <vslam/landmark_summary_t.hpp>
 #include <vslam/landmark_update_t.hpp>
+#include <vslam/pose_estimate_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "bus/lockstep_replay.hpp"
@@ -263,6 +264,54 @@ TEST(LandmarkDbStage, RevisedPointsArePublishedWithTheStructure) {
   ASSERT_EQ(updates[1].landmark.num_points, 30);
   EXPECT_EQ(updates[1].landmark.points, revision.landmark.points);
   EXPECT_EQ(updates[1].landmark.descriptors, updates[0].landmark.descriptors);
+  fs::remove_all(dir);
+}
+
+// The back-end's estimates reach the map file (what a restarted back-end
+// resumes from), at the statistics' pace, and a kidnapped one clears it.
+TEST(LandmarkDbStage, KeepsTheBackendsNewestEstimateInTheMapFile) {
+  const fs::path dir = vslam::test::scratchDir("landmark_db_stage_robot_pose");
+  const auto stack =
+      config::StackConfig::loadFile(fs::path(VSLAM_SOURCE_DIR) / "config/vslam.yaml");
+  auto params = stages::LandmarkDbParams::load(stack.process("landmark_db"), stack.robot);
+  auto run = [&](double kidnapped_from_s) {
+    fs::remove(dir / "map.vslam-map");
+    {
+      bus::LogWriter log(dir / "in.lcmlog");
+      for (int k = 0; k <= 150; ++k) {  // 3 s at 50 Hz, driving along x
+        vslam::pose_estimate_t p{};
+        p.utime = kT0 + k * 20'000;
+        p.seq = k;
+        p.x = 1.0 + 0.01 * k;
+        p.y = -2.0;
+        p.theta = 0.5;
+        p.odom_x = 0.01 * k;
+        p.covariance[0] = p.covariance[4] = 0.02 * 0.02;
+        p.covariance[8] = 1e-4;
+        p.kidnapped = k * 0.02 >= kidnapped_from_s;
+        log.writeMessage(p.utime, "POSE_ESTIMATE", p);
+      }
+    }
+    bus::ReplayOptions options;
+    options.input = dir / "in.lcmlog";
+    options.output = dir / "out.lcmlog";
+    bus::LockstepReplay replay(options);
+    params.map_file = dir / "map.vslam-map";
+    replay.addStage("landmark_db", std::make_unique<stages::LandmarkDbStage>(params));
+    replay.run();
+    landmark_db::StoreOptions read;
+    read.create_if_missing = false;
+    read.read_only = true;
+    return landmark_db::LandmarkStore(dir / "map.vslam-map", read).robotPose();
+  };
+  const auto saved = run(1e9);
+  ASSERT_TRUE(saved);
+  EXPECT_EQ(saved->utime, kT0 + 150 * 20'000) << "the newest, written when the DB stopped";
+  EXPECT_DOUBLE_EQ(saved->map_pose.x, 2.5);
+  EXPECT_DOUBLE_EQ(saved->map_pose.theta, 0.5);
+  EXPECT_DOUBLE_EQ(saved->odom_pose.x, 1.5);
+  EXPECT_DOUBLE_EQ(saved->covariance[8], 1e-4);
+  EXPECT_FALSE(run(2.0)) << "the robot was kidnapped at 2 s: no pose to resume from";
   fs::remove_all(dir);
 }
 
