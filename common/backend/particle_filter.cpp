@@ -306,6 +306,16 @@ UpdateReport ParticleFilter::update(const Observation& obs) {
     rep.suspect = true;
     return rep;
   }
+  if (kidnapped_ && robot_was_moved_ && placed_utime_[slot] >= moved_since_utime_) {
+    // Placed after a view jump moved the robot and before the kidnapping was
+    // declared: from the pose the robot was thought to be at, so it agrees
+    // with that pose by construction and says nothing of where the robot is.
+    // All dual from it, the particles went back there, and it "confirmed"
+    // that pose (reporting home 1018's third carry: relocalized 1.9 m off,
+    // corrected 10 s later). It neither proposes nor confirms; it is
+    // re-tested after the relocalization, as it was already.
+    return unweighedReport(UpdateKind::kKidnapped, 0);
+  }
   // While kidnapped, does it agree with the hypothesis the kidnapping
   // replaced? Then it was a look-alike's, and this measurement updates
   // that hypothesis as usual.
@@ -572,6 +582,8 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         }
         rep->kidnap_detected = true;
         robot_was_moved_ = recentViewJump(obs.utime);
+        moved_since_utime_ =
+            robot_was_moved_ ? jumps_since_utime_ : std::numeric_limits<int64_t>::max();
         view_jump_utime_ = jumps_since_utime_ =
             std::numeric_limits<int64_t>::min();  // they did their work
         chooseRetestCandidates(to);
@@ -733,7 +745,10 @@ void ParticleFilter::noteViewJump(int64_t t) {
   // after 15.6 s).
   if (!recentViewJump(t)) jumps_since_utime_ = t;
   view_jump_utime_ = std::max(view_jump_utime_, t);
-  if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) robot_was_moved_ = true;
+  if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) {
+    robot_was_moved_ = true;
+    moved_since_utime_ = std::min(moved_since_utime_, jumps_since_utime_);
+  }
 }
 
 bool ParticleFilter::withinViewJumpWindow(int64_t since, int64_t t) const {
@@ -912,7 +927,8 @@ void ParticleFilter::startKidnapped() {
   kidnapped_ = true;
   kidnap_declared_utime_ = std::numeric_limits<int64_t>::min();  // no measurement declared it
   robot_was_moved_ = true;
-  forgetBeforeKidnap();  // no hypothesis to go back to
+  moved_since_utime_ = std::numeric_limits<int64_t>::max();  // no landmark placed from a wrong pose
+  forgetBeforeKidnap();                                      // no hypothesis to go back to
   low_run_.clear();
   reloc_run_.clear();
   recover_count_ = 0;

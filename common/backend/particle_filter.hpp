@@ -478,6 +478,10 @@ class ParticleFilter {
   // view_jump_window_s of the one before.
   int64_t jumps_since_utime_ = std::numeric_limits<int64_t>::min();
   bool robot_was_moved_ = false;  // robotWasMoved()
+  // While kidnapped with robot_was_moved_ from a view jump: the first jump
+  // of its series, when the robot was moved. Landmarks placed since were
+  // placed from the pose it was thought to be at (max: none known).
+  int64_t moved_since_utime_ = std::numeric_limits<int64_t>::max();
   // The latest relocalization of a robot known to have been moved.
   int64_t moved_relocalized_utime_ = std::numeric_limits<int64_t>::min();
   // While kidnapped: the measurements of the last recover_window_s, from

@@ -1283,6 +1283,43 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotCancelTheKidnapping
   EXPECT_TRUE(started.robotWasMoved());
 }
 
+TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotConfirmARelocalization) {
+  // Landmarks 1-3 are mapped at the start; at 10 s the robot is carried 3 m
+  // back, its odometry still, and a front-end sees its view jump. It makes
+  // landmarks 4 and 5 there, placed from where it is thought to be, before
+  // landmarks 1 and 2 declare the kidnapping. Measured again while it is
+  // kidnapped, 4 and 5 agree with each other and with that old pose by
+  // construction: all dual from them, the particles would go back there and
+  // two distinct landmarks would confirm it (reporting home 1018's third
+  // carry: relocalized 1.9 m off). They neither propose nor confirm; the
+  // mapped landmarks relocalize the robot where it is.
+  const auto at = observationAt;
+  FilterParams p = homeParams(200);
+  p.kidnap.view_jump_window_s = 20.0;
+  auto pf = filterWithThreeLandmarks(p, {0, -1, 0});
+  pf->noteViewJump(at(0, {}, 10.0).utime);
+  EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 10.5)).kind, UpdateKind::kInitialized);
+  EXPECT_EQ(pf->update(at(5, {0, 0.5, 0}, 10.7)).kind, UpdateKind::kInitialized);
+  for (int k = 0; k < 8 && !pf->kidnapped(); ++k)
+    pf->update(seenFromThreeMetresBack(k, 11 + 0.5 * k));
+  ASSERT_TRUE(pf->kidnapped());
+  ASSERT_TRUE(pf->robotWasMoved());
+  for (int k = 0; k < 4; ++k) {
+    const UpdateReport r =
+        pf->update(k % 2 ? at(5, {0, 0.5, 0}, 15.1 + 0.1 * k) : at(4, {0.5, 0, 0}, 15.1 + 0.1 * k));
+    EXPECT_FALSE(r.recovered) << "measurement " << k;
+    EXPECT_FALSE(r.cancelled) << "measurement " << k;
+    EXPECT_EQ(r.num_dual, 0) << "measurement " << k;
+  }
+  ASSERT_TRUE(pf->kidnapped());
+  bool recovered = false;
+  for (int k = 0; k < 4 && !recovered; ++k)
+    recovered = pf->update(seenFromThreeMetresBack(k, 16 + 0.5 * k)).recovered;
+  EXPECT_TRUE(recovered);
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.2);
+}
+
 TEST(ParticleFilter, TheLandmarksThatDeclaredAKidnappingCountTowardItsRelocalization) {
   // The robot is carried 3 m back; landmarks 1 and 2 show it there for 2.5 s
   // and declare a kidnapping. A third landmark that agrees confirms the
