@@ -317,8 +317,8 @@ std::vector<Change> LandmarkDatabase::flush() {
 
 void LandmarkDatabase::noteRobotEstimate(const RobotPoseRecord& estimate, bool kidnapped) {
   if (kidnapped) {
-    robot_estimate_dirty_ =
-        robot_estimate_dirty_ || robot_estimate_.has_value() || store_->robotPose().has_value();
+    // (An estimate not yet written keeps the flag set already.)
+    robot_estimate_dirty_ = robot_estimate_dirty_ || store_->robotPose().has_value();
     robot_estimate_.reset();
     return;
   }

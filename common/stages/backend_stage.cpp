@@ -417,6 +417,11 @@ std::filesystem::path landmarkDbMapFile(const config::StackConfig& stack) {
 
 }  // namespace
 
+Eigen::Matrix3d BackendStage::mapPriorCovariance() const {
+  const double xy = params_.map_prior_sigma_xy_m, theta = params_.map_prior_sigma_theta_rad;
+  return Eigen::Vector3d(xy * xy, xy * xy, theta * theta).asDiagonal();
+}
+
 void BackendStage::loadMapPrior() {
   landmark_db::StoreOptions options;
   options.create_if_missing = false;
@@ -424,9 +429,7 @@ void BackendStage::loadMapPrior() {
   // Throws MapFileError naming the file: a map that cannot be read is a
   // configuration error, not an empty map.
   landmark_db::LandmarkStore store(params_.map_prior_file, options);
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  covariance(0, 0) = covariance(1, 1) = params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
-  covariance(2, 2) = params_.map_prior_sigma_theta_rad * params_.map_prior_sigma_theta_rad;
+  const Eigen::Matrix3d covariance = mapPriorCovariance();
   std::vector<backend::ParticleFilter::KnownLandmark> known;
   size_t without_pose = 0;
   for (const landmark_db::LandmarkInfo& info : store.loadAllInfo()) {
@@ -446,9 +449,8 @@ void BackendStage::loadMapPrior() {
   prior_landmarks_ = known.size();
   if (!known.empty()) {
     // A saved robot pose is judged at the first odometry (is it recent?).
-    saved_robot_pose_ = store.robotPose();
-    start_pending_ = saved_robot_pose_ && params_.map_prior_resume_max_gap_s > 0;
-    if (!start_pending_ && params_.map_prior_unknown_start) backend_.filter().startKidnapped();
+    if (params_.map_prior_resume_max_gap_s > 0) saved_robot_pose_ = store.robotPose();
+    if (!saved_robot_pose_ && params_.map_prior_unknown_start) backend_.filter().startKidnapped();
   }
   params_.database_id = store.databaseId();
   if (known.empty()) {
@@ -523,8 +525,8 @@ void BackendStage::logLimited(LogReason reason, const Args&... args) {
 }
 
 void BackendStage::chooseStart(const vslam::odometry_t& first) {
-  start_pending_ = false;
-  const landmark_db::RobotPoseRecord& saved = *saved_robot_pose_;
+  const landmark_db::RobotPoseRecord saved = *saved_robot_pose_;
+  saved_robot_pose_.reset();  // judged once
   // In double: a damaged file's utime must not overflow the subtraction.
   const double gap_s = 1e-6 * (static_cast<double>(first.utime) - static_cast<double>(saved.utime));
   if (gap_s < 0 || gap_s > params_.map_prior_resume_max_gap_s) {
@@ -536,11 +538,9 @@ void BackendStage::chooseStart(const vslam::odometry_t& first) {
     const Pose2 map_T_odom = saved.map_pose.compose(saved.odom_pose.inverse());
     const Pose2 pose = map_T_odom.compose(Pose2{first.x, first.y, first.theta});
     // The saved uncertainty, and the map's own (the landmarks' prior).
-    Eigen::Matrix3d covariance =
-        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(saved.covariance.data());
-    covariance(0, 0) += params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
-    covariance(1, 1) += params_.map_prior_sigma_xy_m * params_.map_prior_sigma_xy_m;
-    covariance(2, 2) += params_.map_prior_sigma_theta_rad * params_.map_prior_sigma_theta_rad;
+    const Eigen::Matrix3d covariance =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(saved.covariance.data()) +
+        mapPriorCovariance();
     try {
       backend_.filter().startAt(pose, covariance);
       resumed_ = true;
@@ -557,7 +557,8 @@ void BackendStage::chooseStart(const vslam::odometry_t& first) {
 
 void BackendStage::onOdometry(const vslam::odometry_t& msg) {
   odometry_watchdog_->arrived(ctx_->clock.now(), msg.utime);
-  if (start_pending_ && std::isfinite(msg.x) && std::isfinite(msg.y) && std::isfinite(msg.theta)) {
+  if (saved_robot_pose_ && std::isfinite(msg.x) && std::isfinite(msg.y) &&
+      std::isfinite(msg.theta)) {
     chooseStart(msg);
   }
   using Outcome = OdometryIncrements::Outcome;

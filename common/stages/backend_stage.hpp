@@ -108,6 +108,8 @@ class BackendStage final : public bus::Stage {
   void logLimited(LogReason reason, const Args&... args);
 
   void loadMapPrior();
+  // The map prior's standard deviations as a covariance (x, y, θ).
+  Eigen::Matrix3d mapPriorCovariance() const;
   // At the first odometry reading with a map prior: resume at the map file's
   // robot pose if it is recent enough, else start as map_prior_start says.
   void chooseStart(const vslam::odometry_t& first);
@@ -115,8 +117,8 @@ class BackendStage final : public bus::Stage {
   BackendStageParams params_;
   backend::Backend backend_;
   size_t prior_landmarks_ = 0;
-  bool start_pending_ = false;  // a map prior is loaded, the first odometry not yet in
-  std::optional<landmark_db::RobotPoseRecord> saved_robot_pose_;  // the map file's
+  // The map prior's robot pose, until the first odometry reading judges it.
+  std::optional<landmark_db::RobotPoseRecord> saved_robot_pose_;
   bool resumed_ = false;  // started at saved_robot_pose_ (health)
   bus::StageContext* ctx_ = nullptr;
   int64_t pose_seq_ = 0, map_seq_ = 0, particles_seq_ = 0;
