@@ -714,16 +714,27 @@ void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
   // measurement whose implied pose, carried to now, is near the evidence.
   // The robot was moved before it; landmarks placed from a little before it
   // on may have been placed from the pose it was thought to be at.
-  int64_t onset = std::numeric_limits<int64_t>::max();
+  constexpr int64_t kNever = std::numeric_limits<int64_t>::max();
+  int64_t onset = kNever;
   for (const Implied& m : recent_inconsistent_)
     if (agreesWith(m, at, 2.0)) onset = std::min(onset, m.utime);
   recent_inconsistent_.clear();
-  if (onset == std::numeric_limits<int64_t>::max()) return;
-  const int64_t from = onset - static_cast<int64_t>(kp.retest_margin_s * 1e6);
-  for (uint32_t s = 0; s < placed_utime_.size(); ++s) {
+  int64_t from = onset == kNever ? kNever : onset - static_cast<int64_t>(kp.retest_margin_s * 1e6);
+  // A robot seen to be moved was moved at its view jumps' start: every
+  // landmark placed since was placed from the pose it was thought to be at,
+  // however long before the first inconsistent measurement.
+  if (robot_was_moved_) from = std::min(from, moved_since_utime_);
+  if (from == kNever) return;
+  for (uint32_t s = 0; s < placed_utime_.size(); ++s)
     retest_pending_[s] = 0;  // a re-test of an earlier relocalization is moot now
-    if (placed_utime_[s] >= from) retest_candidates_.push_back(s);
-  }
+  retestLandmarksPlacedSince(from);
+}
+
+void ParticleFilter::retestLandmarksPlacedSince(int64_t from) {
+  for (uint32_t s = 0; s < placed_utime_.size(); ++s)
+    if (placed_utime_[s] >= from && std::find(retest_candidates_.begin(), retest_candidates_.end(),
+                                              s) == retest_candidates_.end())
+      retest_candidates_.push_back(s);
 }
 
 void ParticleFilter::endLowRun() {
@@ -748,6 +759,7 @@ void ParticleFilter::noteViewJump(int64_t t) {
   if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) {
     robot_was_moved_ = true;
     moved_since_utime_ = std::min(moved_since_utime_, jumps_since_utime_);
+    if (params_.kidnap.retest_margin_s >= 0) retestLandmarksPlacedSince(moved_since_utime_);
   }
 }
 

@@ -408,6 +408,8 @@ class ParticleFilter {
   // At a kidnap detection with evidence of the pose `at`: the landmarks to
   // re-test after the relocalization.
   void chooseRetestCandidates(const Pose2& at);
+  // Adds the landmarks placed at or after `from` to those re-tested.
+  void retestLandmarksPlacedSince(int64_t from);
   // While kidnapped: does this measurement cancel the kidnapping
   // (KidnapParams::cancel_count)? If so, the particles are the hypothesis
   // it replaced again.

@@ -1197,6 +1197,50 @@ TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
   EXPECT_EQ(kidnaps, 1);
 }
 
+TEST(ParticleFilter, LandmarksMadeAfterAViewJumpAreMovedWithTheRelocalizationHoweverEarly) {
+  // As above, but the robot, carried at 1 s (a front-end saw its view
+  // jump), makes landmarks 4 and 5 at once and sees an old landmark only
+  // 9 s later: 4 and 5 were placed more than retest_margin_s before the
+  // first inconsistent measurement. They were still placed from where the
+  // robot was thought to be, which the view jump says: they are re-tested
+  // and moved with the relocalization, no kidnapping back. Without the view
+  // jump known (view_jump_window_s 0) nothing says so: they are measured
+  // where they were placed, and declare a kidnapping back there.
+  const auto at = observationAt;
+  auto run = [&](double view_jump_window_s, std::vector<UpdateReport>* after) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = view_jump_window_s;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    pf->noteViewJump(at(0, {}, 1.0).utime);
+    EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 1.2)).kind, UpdateKind::kInitialized);
+    EXPECT_EQ(pf->update(at(5, {0, 0.5, 0}, 1.4)).kind, UpdateKind::kInitialized);
+    bool recovered = false;
+    double s = 10.0;
+    for (int k = 0; k < 16 && !recovered; ++k, s += 0.5)
+      recovered = pf->update(seenFromThreeMetresBack(k, s)).recovered;
+    EXPECT_TRUE(recovered);
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+    for (int k = 0; k < 8; ++k, s += 0.5)
+      after->push_back(pf->update(k % 2 ? at(5, {0, 0.5, 0}, s) : at(4, {0.5, 0, 0}, s)));
+    return pf;
+  };
+  std::vector<UpdateReport> reports;
+  const auto pf = run(20.0, &reports);
+  EXPECT_TRUE(reports[0].moved);
+  EXPECT_TRUE(reports[1].moved);
+  for (size_t i = 0; i < reports.size(); ++i)
+    EXPECT_FALSE(reports[i].kidnap_detected) << "measurement " << i;
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+
+  reports.clear();
+  const auto without = run(0.0, &reports);  // the control
+  int kidnaps = 0;
+  for (const UpdateReport& r : reports) kidnaps += r.kidnap_detected;
+  EXPECT_EQ(kidnaps, 1);
+}
+
 TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   // Landmarks 1-3 are mapped from the start pose; at 1 s the robot is
   // carried 3 m back, its odometry still, and a front-end sees its view
