@@ -725,8 +725,8 @@ void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
   // however long before the first inconsistent measurement.
   if (robot_was_moved_) from = std::min(from, moved_since_utime_);
   if (from == kNever) return;
-  for (uint32_t s = 0; s < placed_utime_.size(); ++s)
-    retest_pending_[s] = 0;  // a re-test of an earlier relocalization is moot now
+  // A re-test of an earlier relocalization is moot now.
+  std::fill(retest_pending_.begin(), retest_pending_.end(), 0);
   retestLandmarksPlacedSince(from);
 }
 

@@ -860,6 +860,12 @@ Observation seenFromThreeMetresBack(int k, double seconds) {
   return k % 2 ? observationAt(2, {-3, 1, 0}, seconds) : observationAt(1, {-2, 0, 0}, seconds);
 }
 
+int kidnapDetections(const std::vector<UpdateReport>& reports) {
+  int n = 0;
+  for (const UpdateReport& r : reports) n += r.kidnap_detected;
+  return n;
+}
+
 // A filter that has mapped landmarks 1 and 2 at (-1, 0, 0) and (0, -1, 0),
 // and landmark 3 where `y3` puts it, all from the start pose at t = 0.
 std::unique_ptr<ParticleFilter> filterWithThreeLandmarks(const FilterParams& p, const Pose2& y3) {
@@ -1192,9 +1198,7 @@ TEST(ParticleFilter, LandmarksMadeAfterACarryAreMovedWithTheRelocalization) {
 
   reports.clear();
   const auto without = run(-1, &reports);  // the control
-  int kidnaps = 0;
-  for (const UpdateReport& r : reports) kidnaps += r.kidnap_detected;
-  EXPECT_EQ(kidnaps, 1);
+  EXPECT_EQ(kidnapDetections(reports), 1);
 }
 
 TEST(ParticleFilter, LandmarksMadeAfterAViewJumpAreMovedWithTheRelocalizationHoweverEarly) {
@@ -1236,9 +1240,7 @@ TEST(ParticleFilter, LandmarksMadeAfterAViewJumpAreMovedWithTheRelocalizationHow
 
   reports.clear();
   const auto without = run(0.0, &reports);  // the control
-  int kidnaps = 0;
-  for (const UpdateReport& r : reports) kidnaps += r.kidnap_detected;
-  EXPECT_EQ(kidnaps, 1);
+  EXPECT_EQ(kidnapDetections(reports), 1);
 }
 
 TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
