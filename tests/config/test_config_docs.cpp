@@ -116,6 +116,8 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
        "dim rooms of generated homes (docs/frontend.md); the library keeps the paper's frames"},
       {"frontend.view_jump_max_matched_share",
        "carried robots (docs/frontend.md, \"View jumps\"); the library's frames are not tested"},
+      {"frontend.refine_distance_m",
+       "tuning homes 21-52 (docs/benchmark-homes.md); the library keeps the paper's three views"},
       {"backend.kidnap.view_jump_window_s",
        "carries of the tuning homes (docs/backend.md, \"View jumps\"); the library ignores them"},
       {"camera.width", "the robot file's cameras are calibrated at 320x240"},
