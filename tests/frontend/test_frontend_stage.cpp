@@ -104,10 +104,16 @@ TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
   std::vector<vslam::ground_truth_pose_t> truth;
   std::map<int64_t, vslam::landmark_t> landmarks;
   std::vector<vslam::visual_measurement_t> measurements;
+  int revisions = 0;
   for (const auto& e : vslam::test::readLog(dir / "run.lcmlog")) {
     if (e.channel == "GROUND_TRUTH") truth.push_back(decode<vslam::ground_truth_pose_t>(e));
     if (e.channel == "LANDMARK_PROPOSAL") {
-      EXPECT_EQ(decode<vslam::landmark_update_t>(e).op, vslam::landmark_update_t::OP_PROPOSED);
+      // New landmarks, and (refine_distance_m in the shipped config) their refined points.
+      const auto op = decode<vslam::landmark_update_t>(e).op;
+      EXPECT_TRUE(op == vslam::landmark_update_t::OP_PROPOSED ||
+                  op == vslam::landmark_update_t::OP_REVISED)
+          << "op " << static_cast<int>(op);
+      if (op == vslam::landmark_update_t::OP_REVISED) ++revisions;
     }
     if (e.channel == "LANDMARK_UPDATE") {
       const auto u = decode<vslam::landmark_update_t>(e);
@@ -123,6 +129,7 @@ TEST(FrontendStage, CreatesLandmarksAndMeasuresThemOnRenderedFrames) {
     return Pose2{it->x, it->y, it->theta};
   };
   ASSERT_GE(landmarks.size(), 4u);
+  EXPECT_GT(revisions, 0) << "config/vslam.yaml refines new landmarks from later views";
   for (const auto& [id, l] : landmarks) {
     EXPECT_GE(l.num_points, 20) << "landmark " << id;
     EXPECT_EQ(l.descriptor_size, 128);
