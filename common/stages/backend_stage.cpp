@@ -263,7 +263,8 @@ const ParamTable<BackendStageParams>& BackendStageParams::table() {
         .add(
             "sigma_translation",
             [](auto& p) -> auto& { return p.backend.filter.motion.sigma_translation; },
-            config::nonNegative(), "m/√m", "σ_T of the motion model (as `deadreckon`)")
+            config::nonNegative(), "m/√m",
+            "σ_T of the motion model (the odometry's, as `deadreckon`, or wider)")
         .required()
         .add(
             "sigma_rotation",
