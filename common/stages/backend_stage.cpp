@@ -263,8 +263,7 @@ const ParamTable<BackendStageParams>& BackendStageParams::table() {
         .add(
             "sigma_translation",
             [](auto& p) -> auto& { return p.backend.filter.motion.sigma_translation; },
-            config::nonNegative(), "m/√m",
-            "σ_T of the motion model (the odometry's, as `deadreckon`, or wider)")
+            config::nonNegative(), "m/√m", "σ_T of the motion model (as `deadreckon`)")
         .required()
         .add(
             "sigma_rotation",

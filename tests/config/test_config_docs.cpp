@@ -76,8 +76,7 @@ TEST(ConfigDocs, ParameterTablesAreTheDeclaredOnes) {
 TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
   // block.key -> why config/vslam.yaml sets another value than the library.
   const std::map<std::string, std::string> why = {
-      {"backend.landmark_min_interval_s",
-       "correlated measurements (docs/backend.md, Robustness); 1 s from tuning homes 21-52"},
+      {"backend.landmark_min_interval_s", "correlated measurements (docs/backend.md, Robustness)"},
       {"backend.mixture.dual_ratio_max",
        "0.5 let aliases flood the set with dual particles in generated homes"},
       {"backend.mixture.motion_min_sigma_xy_m", "set with the robust likelihood (commit 62e4053)"},
