@@ -545,11 +545,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     // look-alike's inconsistent measurement neither extends nor ends it.
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
-      if (!suspect) {
-        pushBounded(low_run_, implied(obs, slot));
-        if (kp.retest_margin_s >= 0)
-          pushBounded(recent_inconsistent_, implied(obs, slot), kMaxRecentInconsistent);
-      }
+      if (!suspect) noteInconsistent(obs, slot);
     } else if (endsLowRun(slot, obs.utime)) {
       endLowRun();
     }
@@ -769,6 +765,18 @@ bool ParticleFilter::withinViewJumpWindow(int64_t since, int64_t t) const {
   return static_cast<double>(t - since) <= window_s * 1e6;
 }
 
+bool ParticleFilter::justAfterViewJump(int64_t t) const {
+  const double window_s = params_.kidnap.moved_evidence_s;
+  if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return false;
+  return t >= view_jump_utime_ && static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
+}
+
+void ParticleFilter::noteInconsistent(const Observation& obs, uint32_t slot) {
+  pushBounded(low_run_, implied(obs, slot));
+  if (params_.kidnap.retest_margin_s >= 0)
+    pushBounded(recent_inconsistent_, implied(obs, slot), kMaxRecentInconsistent);
+}
+
 bool ParticleFilter::recentViewJump(int64_t t) const {
   return withinViewJumpWindow(view_jump_utime_, t);
 }
@@ -787,6 +795,11 @@ double ParticleFilter::noteUnused(const Observation& obs) {
   const Eigen::Matrix3d r = measurementCovarianceOf(obs);
   const double agreement =
       agreementWith(static_cast<uint32_t>(slot), obs, r, normalizedLogWeights());
+  // Inconsistent just after a view jump: kidnap evidence (KidnapParams::
+  // moved_evidence_s), judged with the next measurement the filter uses.
+  if (!kidnapped_ && agreement < params_.kidnap.detect_agreement && justAfterViewJump(obs.utime) &&
+      !isSuspect(static_cast<uint32_t>(slot)))
+    noteInconsistent(obs, static_cast<uint32_t>(slot));
   if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
     record(static_cast<uint32_t>(slot)).consistent += 1;
     if (endsLowRun(static_cast<uint32_t>(slot), obs.utime)) endLowRun();
@@ -853,7 +866,7 @@ int ParticleFilter::agreeingLandmarks(const std::vector<Implied>& run, size_t i,
 
 std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
     const KidnapParams& kp) const {
-  if (kp.detect_min_span_s > 0 &&
+  if (kp.detect_min_span_s > 0 && !justAfterViewJump(low_run_.front().utime) &&
       static_cast<double>(low_run_.back().utime - low_run_.front().utime) <
           kp.detect_min_span_s * 1e6)
     return std::nullopt;

@@ -157,6 +157,18 @@ struct KidnapParams {
   // window, or during which a view jumps, is known to be real
   // (robotWasMoved). 0: view jumps are ignored.
   double view_jump_window_s = 0.0;
+  // Right after a view jump the robot has most likely been moved, and the
+  // sooner the kidnapping is declared the less time the estimate spends at
+  // the old place. For moved_evidence_s after the latest jump (0: off),
+  // (a) a measurement thinned by the back-end (one per landmark per
+  // landmark_min_interval_s) that is inconsistent still joins the run of
+  // inconsistent ones: it weighs no particle (correlated with the landmark's
+  // last one) but says where the robot is, and the distinct landmarks that
+  // must agree on that keep one landmark's stream from declaring anything;
+  // (b) a run that began within it needs no detect_min_span_s, which is
+  // there for a repeated pattern met while driving, not for a robot seen to
+  // be moved.
+  double moved_evidence_s = 0.0;
 };
 
 struct FilterParams {
@@ -267,8 +279,9 @@ class ParticleFilter {
   // change, but if the particles explain it (agreement >= recover_agreement)
   // it ends a run of inconsistent measurements, as an update would: what the
   // robot sees has a consistent explanation, so the run is no kidnap
-  // evidence. An inconsistent one does not extend the run. Returns the
-  // agreement (0 for an unknown landmark).
+  // evidence. An inconsistent one extends the run only just after a view
+  // jump (KidnapParams::moved_evidence_s). Returns the agreement (0 for an
+  // unknown landmark).
   double noteUnused(const Observation& obs);
   // A camera's view jumped at t (KidnapParams::view_jump_window_s).
   void noteViewJump(int64_t t);
@@ -446,6 +459,12 @@ class ParticleFilter {
   bool withinViewJumpWindow(int64_t since, int64_t t) const;
   // A view jump noted no more than view_jump_window_s before t.
   bool recentViewJump(int64_t t) const;
+  // t is no more than moved_evidence_s after the latest view jump.
+  bool justAfterViewJump(int64_t t) const;
+  // An inconsistent measurement of a landmark that is not a look-alike: in
+  // the run that may declare a kidnapping, and among those a relocalization
+  // re-tests landmarks against.
+  void noteInconsistent(const Observation& obs, uint32_t slot);
   // A robot known to have been moved relocalized no more than
   // view_jump_window_s before t.
   bool recentlyRelocalizedAfterAMove(int64_t t) const;

@@ -122,7 +122,11 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "since the jump do not end a run of inconsistent measurements (they agree with the "
            "pose the robot was thought to be at by construction), and a kidnapping declared is "
            "known to be real: relocalized with every measurement, not cancelled by landmarks "
-           "placed since it began; 0: view jumps are ignored");
+           "placed since it began; 0: view jumps are ignored")
+      .add("moved_evidence_s", &K::moved_evidence_s, InRange{0, 600}, "s",
+           "for this long after a front-end's view jumped, inconsistent measurements the "
+           "back-end thins (`landmark_min_interval_s`) still count toward a kidnapping, and a "
+           "run begun in it needs no `detect_min_span_s`; 0: off");
   return t;
 }
 

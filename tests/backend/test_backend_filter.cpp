@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <map>
 #include <memory>
 #include <numeric>
 
@@ -1295,6 +1296,60 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   EXPECT_EQ(kidnaps, 0);
   run(true, 3, &kidnaps, &recovered);  // a landmark placed before the jump
   EXPECT_EQ(kidnaps, 0);
+}
+
+TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
+  // Landmarks 1-3 are mapped from the start pose at t = 0; at 1 s the robot
+  // is carried 3 m back and a front-end sees its view jump. From 1.1 s the
+  // cameras measure the three landmarks in turn, 10 a second, and the caller
+  // thins them as the back-end does: one per landmark per 2 s is used, the
+  // others are only noted (noteUnused). Within moved_evidence_s of the jump
+  // the noted inconsistent ones join the kidnap test's run and the run needs
+  // no detect_min_span_s: the carry is declared with the first measurement
+  // used (2 s), not 2 s of used measurements later (4 s). Either way the
+  // filter relocalizes where the robot was carried to.
+  const auto at = observationAt;
+  const Pose2 carried_to{-3, 0, 0};
+  const Pose2 landmark3{0, 1, 0};
+  auto detected_at = [&](bool jumped, double moved_evidence_s, Pose2* relocalized) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    p.kidnap.moved_evidence_s = moved_evidence_s;
+    auto pf = filterWithThreeLandmarks(p, landmark3.between(Pose2{}));
+    if (jumped) pf->noteViewJump(at(0, {}, 1.0).utime);
+    std::map<int64_t, double> last_used = {{1, 0.0}, {2, 0.0}, {3, 0.0}};
+    double detected = -1;
+    for (int k = 0; k < 100; ++k) {
+      const double t = 1.1 + 0.1 * k;
+      const int64_t id = 1 + k % 3;
+      const Observation obs = id == 3 ? at(3, predictMeasurement(carried_to, landmark3), t)
+                                      : seenFromThreeMetresBack(id == 2, t);
+      if (t - last_used[id] < 2.0 - 1e-9) {
+        pf->noteUnused(obs);
+        continue;
+      }
+      last_used[id] = t;
+      const UpdateReport r = pf->update(obs);
+      if (r.kidnap_detected && detected < 0) detected = t;
+      if (detected >= 0 && !pf->kidnapped()) break;
+    }
+    *relocalized = pf->estimate().mean;
+    return detected;
+  };
+  Pose2 relocalized;
+  const double with_jump = detected_at(true, 5.0, &relocalized);
+  EXPECT_GE(with_jump, 2.0);
+  EXPECT_LT(with_jump, 2.5);
+  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
+  EXPECT_NEAR(relocalized.y, 0.0, 0.15);
+
+  // The controls: without the jump, or with moved_evidence_s off, the run
+  // is made of used measurements only and must last 2 s.
+  for (const auto& [jumped, window] : {std::pair{false, 5.0}, std::pair{true, 0.0}}) {
+    const double later = detected_at(jumped, window, &relocalized);
+    EXPECT_GE(later, 3.9) << "jumped " << jumped << " window " << window;
+    EXPECT_NEAR(relocalized.x, -3.0, 0.15);
+  }
 }
 
 TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotCancelTheKidnapping) {

@@ -120,6 +120,9 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
        "tuning homes 21-52 (docs/benchmark-homes.md); the library keeps the paper's three views"},
       {"backend.kidnap.view_jump_window_s",
        "carries of the tuning homes (docs/backend.md, \"View jumps\"); the library ignores them"},
+      {"backend.kidnap.moved_evidence_s",
+       "carries of the tuning homes 21-52 (docs/backend.md, \"View jumps\"); off in the library "
+       "as view jumps are"},
       {"camera.width", "the robot file's cameras are calibrated at 320x240"},
       {"camera.height", "as camera.width"},
       {"camera.max_fps", "the robot file's frame_rate_hz (10)"},
