@@ -542,12 +542,21 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     }
   } else {
     // A run of inconsistent measurements in a row (KidnapParams). A known
-    // look-alike's inconsistent measurement neither extends nor ends it.
+    // look-alike's inconsistent measurement neither extends nor ends it. A
+    // consistent one ends it; one between the two thresholds only takes its
+    // own landmark's earlier measurements out of it (that landmark is coming
+    // round to the particles: its old disagreement is stale). After a wheel
+    // slip the particles are a few decimetres off, and the landmarks the slip
+    // left half-explained ended every run, so the drift was never corrected
+    // and the landmarks made since were placed from the wrong pose (tuning
+    // sequence 41: 0.54 m for the rest of its second run; docs/backend.md).
     if (agreement >= kp.recover_agreement) record(slot).consistent += 1;
     if (agreement < kp.detect_agreement) {
       if (!suspect) noteInconsistent(obs, slot);
-    } else if (endsLowRun(slot, obs.utime)) {
-      endLowRun();
+    } else if (agreement >= kp.recover_agreement) {
+      if (endsLowRun(slot, obs.utime)) endLowRun();
+    } else {
+      dropFromLowRun(slot);
     }
     const std::optional<Evidence> evidence =
         static_cast<int>(low_run_.size()) >= kp.detect_count ? kidnapEvidence(kp) : std::nullopt;
@@ -731,6 +740,12 @@ void ParticleFilter::retestLandmarksPlacedSince(int64_t from) {
     if (placed_utime_[s] >= from && std::find(retest_candidates_.begin(), retest_candidates_.end(),
                                               s) == retest_candidates_.end())
       retest_candidates_.push_back(s);
+}
+
+void ParticleFilter::dropFromLowRun(uint32_t slot) {
+  low_run_.erase(std::remove_if(low_run_.begin(), low_run_.end(),
+                                [&](const Implied& m) { return m.slot == slot; }),
+                 low_run_.end());
 }
 
 void ParticleFilter::endLowRun() {

@@ -75,8 +75,10 @@ struct KidnapParams {
   // Agreement a = E_w[exp(-d^2/2)] / 2^-1.5 (d^2: Mahalanobis distance of the
   // innovation; 2^-1.5 is its expectation for consistent 3-D Gaussians), in
   // [0, 1]. detect_count measurements in a row with a < detect_agreement
-  // declare a kidnapping; while kidnapped, recover_count measurements in a
-  // row with a >= recover_agreement end it.
+  // declare a kidnapping (one with a >= recover_agreement ends the run; one
+  // in between takes its landmark's earlier ones out of it); while
+  // kidnapped, recover_count measurements in a row with a >= recover_agreement
+  // end it.
   // A kidnapping also needs inconsistent measurements of at least
   // detect_landmarks distinct landmarks in the run of inconsistent ones in a
   // row: one aliased landmark's stream, however long, is not a kidnapping.
@@ -465,6 +467,9 @@ class ParticleFilter {
   // the run that may declare a kidnapping, and among those a relocalization
   // re-tests landmarks against.
   void noteInconsistent(const Observation& obs, uint32_t slot);
+  // Takes the landmark's measurements out of the run of inconsistent ones
+  // (a newer one of it was neither consistent nor inconsistent).
+  void dropFromLowRun(uint32_t slot);
   // A robot known to have been moved relocalized no more than
   // view_jump_window_s before t.
   bool recentlyRelocalizedAfterAMove(int64_t t) const;
