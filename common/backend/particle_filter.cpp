@@ -775,21 +775,24 @@ void ParticleFilter::noteViewJump(int64_t t) {
 }
 
 bool ParticleFilter::withinViewJumpWindow(int64_t since, int64_t t) const {
-  const double window_s = params_.kidnap.view_jump_window_s;
+  return withinWindow(since, t, params_.kidnap.view_jump_window_s);
+}
+
+bool ParticleFilter::withinWindow(int64_t since, int64_t t, double window_s) {
   if (window_s <= 0 || since == std::numeric_limits<int64_t>::min()) return false;
   return static_cast<double>(t - since) <= window_s * 1e6;
 }
 
 bool ParticleFilter::justAfterViewJump(int64_t t) const {
-  const double window_s = params_.kidnap.moved_evidence_s;
-  if (window_s <= 0 || view_jump_utime_ == std::numeric_limits<int64_t>::min()) return false;
-  return t >= view_jump_utime_ && static_cast<double>(t - view_jump_utime_) <= window_s * 1e6;
+  return t >= view_jump_utime_ &&
+         withinWindow(view_jump_utime_, t, params_.kidnap.moved_evidence_s);
 }
 
 void ParticleFilter::noteInconsistent(const Observation& obs, uint32_t slot) {
-  pushBounded(low_run_, implied(obs, slot));
+  const Implied m = implied(obs, slot);
+  pushBounded(low_run_, m);
   if (params_.kidnap.retest_margin_s >= 0)
-    pushBounded(recent_inconsistent_, implied(obs, slot), kMaxRecentInconsistent);
+    pushBounded(recent_inconsistent_, m, kMaxRecentInconsistent);
 }
 
 bool ParticleFilter::recentViewJump(int64_t t) const {

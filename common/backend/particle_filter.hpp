@@ -459,6 +459,8 @@ class ParticleFilter {
   bool endsLowRun(uint32_t slot, int64_t t) const;
   // since (min: never) is no more than view_jump_window_s (0: off) before t.
   bool withinViewJumpWindow(int64_t since, int64_t t) const;
+  // t is no more than window_s (0: never) after since (min: never).
+  static bool withinWindow(int64_t since, int64_t t, double window_s);
   // A view jump noted no more than view_jump_window_s before t.
   bool recentViewJump(int64_t t) const;
   // t is no more than moved_evidence_s after the latest view jump.
