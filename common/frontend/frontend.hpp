@@ -54,9 +54,9 @@ struct FrontendParams {
   // 0: no refinement.
   double refine_distance_m = 0.0;
   // The view jumped (the robot was carried, or kidnapped): a frame finds
-  // again fewer than this share of the previous frame's strongest features
-  // although odometry says the robot barely moved between them. 0: not
-  // tested.
+  // again fewer than this share of the previous frame's strongest features,
+  // and fewer than this share of its largest-scale ones, although odometry
+  // says the robot barely moved between them. 0: not tested.
   double view_jump_max_matched_share = 0.0;
   SiftParams sift;
   CreationParams creation;
@@ -102,9 +102,10 @@ struct FrameResult {
   std::optional<Refined> refined;
   std::optional<std::string> creation_failure;  // why the window's three views made no landmark
   // This frame against the previous one (view_jump_max_matched_share > 0):
-  // the share of the previous frame's strongest features found again, -1
-  // if not tested (a gap, too few features, the robot moved too far), and
-  // whether the view jumped.
+  // the share of the previous frame's strongest features found again, or of
+  // its largest-scale ones if more of those were, -1 if not tested (a gap,
+  // too few features, the robot moved too far), and whether the view
+  // jumped.
   double matched_share = -1;
   bool view_jumped = false;
   Utime previous_utime = 0;
@@ -179,7 +180,8 @@ class Frontend {
     Utime utime = 0;
     bool have_odometry = false;
     Pose2 odometry;
-    cv::Mat descriptors;
+    cv::Mat strongest;  // descriptors of its kContinuityFeatures strongest features
+    cv::Mat largest;    // and of its kContinuityFeatures largest-scale ones
   };
   std::optional<PreviousFrame> previous_;
   RatioMatcher continuity_matcher_;
