@@ -767,6 +767,16 @@ void ParticleFilter::noteViewJump(int64_t t) {
   // after 15.6 s).
   if (!recentViewJump(t)) jumps_since_utime_ = t;
   view_jump_utime_ = std::max(view_jump_utime_, t);
+  // What was inconsistent before the jump is no evidence of the move the
+  // jump shows: the robot was elsewhere then. If it agrees with what comes
+  // after, the disagreement began before the jump, a look-alike's or
+  // drift's (r1020 home 1031: two landmarks of a repeated pattern, measured
+  // just before a view jump that a fast turn's motion blur caused and again
+  // 5 s after it, declared a kidnapping 4.9 m away).
+  if (params_.kidnap.view_jump_window_s > 0)
+    low_run_.erase(std::remove_if(low_run_.begin(), low_run_.end(),
+                                  [t](const Implied& m) { return m.utime < t; }),
+                   low_run_.end());
   if (kidnapped_ && params_.kidnap.view_jump_window_s > 0) {
     robot_was_moved_ = true;
     moved_since_utime_ = std::min(moved_since_utime_, jumps_since_utime_);
@@ -790,7 +800,8 @@ bool ParticleFilter::justAfterViewJump(int64_t t) const {
 
 void ParticleFilter::noteInconsistent(const Observation& obs, uint32_t slot) {
   const Implied m = implied(obs, slot);
-  pushBounded(low_run_, m);
+  if (!(recentViewJump(obs.utime) && obs.utime < view_jump_utime_))  // see noteViewJump
+    pushBounded(low_run_, m);
   if (params_.kidnap.retest_margin_s >= 0)
     pushBounded(recent_inconsistent_, m, kMaxRecentInconsistent);
 }

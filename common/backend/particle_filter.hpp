@@ -155,9 +155,10 @@ struct KidnapParams {
   // consistent measurements of landmarks placed since the jump do not end
   // a run of inconsistent ones: they were placed from the pose the robot
   // was thought to be at and agree with it by construction, so they say
-  // nothing of whether it is there. A kidnapping declared within the
-  // window, or during which a view jumps, is known to be real
-  // (robotWasMoved). 0: view jumps are ignored.
+  // nothing of whether it is there. Inconsistent measurements from before
+  // the jump leave the run: they cannot show a move that came after them. A
+  // kidnapping declared within the window, or during which a view jumps, is
+  // known to be real (robotWasMoved). 0: view jumps are ignored.
   double view_jump_window_s = 0.0;
   // Right after a view jump the robot has most likely been moved, and the
   // sooner the kidnapping is declared the less time the estimate spends at

@@ -1347,6 +1347,41 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   EXPECT_EQ(kidnaps, 0);
 }
 
+TEST(ParticleFilter, InconsistentMeasurementsFromBeforeAViewJumpAreNoEvidenceOfTheMove) {
+  // Landmarks 1-3 are mapped from the start pose, where the robot stays.
+  // Landmarks 1 and 2 are look-alikes that put it 3 m back: measured at 1.0
+  // and 1.1 s, and again at 8.0 and 8.1 s, beyond moved_evidence_s of a
+  // view jump at 1.5 s (a fast turn's motion blur). Without the jump the
+  // four make a run over 7 s from two landmarks agreeing on one pose: a
+  // kidnapping. With it, the two from before the jump leave the run: they
+  // cannot show a move that came after them, and two measurements declare
+  // nothing. Measurements from before the jump that arrive after it are
+  // left out too.
+  const auto at = observationAt;
+  auto kidnaps = [&](bool jumped, bool late) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    p.kidnap.moved_evidence_s = 5.0;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});
+    std::vector<UpdateReport> reports;
+    if (!late) {
+      reports.push_back(pf->update(seenFromThreeMetresBack(0, 1.0)));
+      reports.push_back(pf->update(seenFromThreeMetresBack(1, 1.1)));
+    }
+    if (jumped) pf->noteViewJump(at(0, {}, 1.5).utime);
+    if (late) {  // delivered after the jump, measured before it
+      reports.push_back(pf->update(seenFromThreeMetresBack(0, 1.0)));
+      reports.push_back(pf->update(seenFromThreeMetresBack(1, 1.1)));
+    }
+    reports.push_back(pf->update(seenFromThreeMetresBack(0, 8.0)));
+    reports.push_back(pf->update(seenFromThreeMetresBack(1, 8.1)));
+    return kidnapDetections(reports);
+  };
+  EXPECT_EQ(kidnaps(true, false), 0);
+  EXPECT_EQ(kidnaps(true, true), 0);
+  EXPECT_EQ(kidnaps(false, false), 1);  // the control
+}
+
 TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
   // Landmarks 1-3 are mapped from the start pose at t = 0; at 1 s the robot
   // is carried 3 m back and a front-end sees its view jump. From 1.1 s the
