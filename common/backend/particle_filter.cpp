@@ -770,9 +770,9 @@ void ParticleFilter::noteViewJump(int64_t t) {
   // What was inconsistent before the jump is no evidence of the move the
   // jump shows: the robot was elsewhere then. If it agrees with what comes
   // after, the disagreement began before the jump, a look-alike's or
-  // drift's (r1020 home 1031: two landmarks of a repeated pattern, measured
-  // just before a view jump that a fast turn's motion blur caused and again
-  // 5 s after it, declared a kidnapping 4.9 m away).
+  // drift's (generated home 1031: two landmarks of a repeated pattern,
+  // measured just before a view jump that a fast turn's motion blur caused
+  // and again 5 s after it, declared a kidnapping 4.9 m away).
   if (params_.kidnap.view_jump_window_s > 0)
     low_run_.erase(std::remove_if(low_run_.begin(), low_run_.end(),
                                   [t](const Implied& m) { return m.utime < t; }),

@@ -15,7 +15,7 @@ constexpr size_t kOdometryHistory = 500;  // readings kept: 10 s at 50 Hz
 // previous frame's strongest features, and its largest-scale ones, are
 // looked for in the next one with a strict ratio test, so that few chance
 // matches pass between unrelated views. Both: the motion blur of a fast turn
-// can hide the fine features that are most of the strongest (r1020 homes
+// can hide the fine features that are most of the strongest (generated homes
 // 1026 and 1031, turns at 70-87 deg/s: 19 frames in two runs found under 5 %
 // of their strongest features again but 12-32 % of their largest), while
 // across a carry neither is found (12 carries in 20 homes: at most 2.5 %).
