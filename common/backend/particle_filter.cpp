@@ -800,8 +800,9 @@ bool ParticleFilter::justAfterViewJump(int64_t t) const {
 
 void ParticleFilter::noteInconsistent(const Observation& obs, uint32_t slot) {
   const Implied m = implied(obs, slot);
-  if (!(recentViewJump(obs.utime) && obs.utime < view_jump_utime_))  // see noteViewJump
-    pushBounded(low_run_, m);
+  const bool before_latest_jump =
+      params_.kidnap.view_jump_window_s > 0 && obs.utime < view_jump_utime_;
+  if (!before_latest_jump) pushBounded(low_run_, m);  // see noteViewJump
   if (params_.kidnap.retest_margin_s >= 0)
     pushBounded(recent_inconsistent_, m, kMaxRecentInconsistent);
 }
