@@ -569,9 +569,10 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
       if (kp.drift_gate_mahalanobis_sq > 0 &&
           rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
-        // Drift: every particle moves by the jump (keeping its spread and
-        // map); this measurement then weighs them as usual.
-        shiftParticles(to.compose(from.inverse()));
+        // Drift: every particle moves (keeping its spread and map) by the
+        // share of the jump the two uncertainties give it; this measurement
+        // then weighs them as usual.
+        shiftParticles(driftCorrected(now, *evidence).compose(from.inverse()));
         rep->drift_corrected = true;
         smoothed_agreement_ = 1;
       } else {
@@ -920,6 +921,22 @@ double ParticleFilter::driftMahalanobisSq(const PoseEstimate& from, const Eviden
   const Eigen::Vector3d d(to.pose.x - from.mean.x, to.pose.y - from.mean.y,
                           wrapAngle(to.pose.theta - from.mean.theta));
   return d.dot(s.ldlt().solve(d));
+}
+
+Pose2 ParticleFilter::driftCorrected(const PoseEstimate& from, const Evidence& to) const {
+  // The evidence is a measurement of the pose like any other: fused with
+  // the particles' mean by the Kalman gain of the two covariances (the
+  // particles' spread by drift_sigma_scale, as in the gate), not adopted
+  // whole. Evidence from far-away or loosely known landmarks moved the
+  // robot onto their error (reporting home 1021: three landmarks, each
+  // contradicted before, said 0.62 m and 12 deg; taken whole, the run's
+  // error after its first 20 s went 0.099 -> 0.161 m).
+  const double k = params_.kidnap.drift_sigma_scale;
+  const Eigen::Matrix3d p = k * k * from.covariance;
+  const Eigen::Vector3d d(to.pose.x - from.mean.x, to.pose.y - from.mean.y,
+                          wrapAngle(to.pose.theta - from.mean.theta));
+  const Eigen::Vector3d c = p * (p + to.covariance).ldlt().solve(d);
+  return {from.mean.x + c.x(), from.mean.y + c.y(), wrapAngle(from.mean.theta + c.z())};
 }
 
 void ParticleFilter::shiftParticles(const Pose2& shift) {

@@ -118,12 +118,14 @@ struct KidnapParams {
   // robot is; if that pose is within the uncertainty the filter has, the
   // inconsistency is the drift of a path that went unobserved (a loop
   // closing), which the paper's test cannot tell from a kidnapping (6.2):
-  // the particles are moved onto the evidence and the filter goes on, with
-  // no kidnapped period. "Within": the jump's squared Mahalanobis distance
-  // under drift_sigma_scale^2 x the particles' covariance (spread by the
-  // motion model, whose sigmas are a guess) + the evidence's own covariance
-  // (its landmarks' and its measurements', Observation::covariance: grown
-  // with the distance in the back-end) is at most drift_gate_mahalanobis_sq.
+  // the particles are moved towards the evidence (by the share of the jump
+  // the two covariances below give it, as a Kalman update would) and the
+  // filter goes on, with no kidnapped period. "Within": the jump's squared
+  // Mahalanobis distance under drift_sigma_scale^2 x the particles'
+  // covariance (spread by the motion model, whose sigmas are a guess) + the
+  // evidence's own covariance (its landmarks' and its measurements',
+  // Observation::covariance: grown with the distance in the back-end) is at
+  // most drift_gate_mahalanobis_sq.
   // 0: every such evidence is a kidnapping.
   double drift_gate_mahalanobis_sq = 0.0;
   double drift_sigma_scale = 1.0;
@@ -234,7 +236,8 @@ struct UpdateReport {
   // Evidence of a pose far from the estimate (KidnapParams) was found at this
   // measurement: the jump from the estimate to it (map frame: dx, dy, dtheta),
   // its squared Mahalanobis distance under the drift covariance, and whether
-  // it was taken as drift (the particles moved by `jump`) or as a kidnapping.
+  // it was taken as drift (the particles moved towards it: part of `jump`)
+  // or as a kidnapping.
   bool evidence = false;
   Pose2 jump;
   double jump_mahalanobis_sq = 0;
@@ -479,6 +482,9 @@ class ParticleFilter {
   // The jump from the estimate to the evidence under the drift covariance
   // (KidnapParams): the particles' spread, scaled, and the evidence's own.
   double driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const;
+  // The pose a drift correction moves the estimate to: the evidence fused
+  // with the estimate under the same two covariances.
+  Pose2 driftCorrected(const PoseEstimate& from, const Evidence& to) const;
   // The observation's covariance (FilterParams' Sigma_vis if it has none).
   Eigen::Matrix3d measurementCovarianceOf(const Observation& obs) const;
   void shiftParticles(const Pose2& shift);

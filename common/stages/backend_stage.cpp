@@ -105,7 +105,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "window agree on one pose (`cluster_*`), the newest among them; 0: off")
       .add("drift_gate_mahalanobis_sq", &K::drift_gate_mahalanobis_sq, InRange{0, 1e6}, "",
            "evidence of a pose within this squared Mahalanobis distance of the estimate is drift: "
-           "the particles move onto it, no kidnapping; 0: every such evidence is a kidnapping")
+           "the particles move towards it (fused by the two covariances), no kidnapping; 0: every "
+           "such evidence is a kidnapping")
       .add("drift_sigma_scale", &K::drift_sigma_scale, InRange{1e-3, 1000}, "",
            "...under this scale² × the particles' covariance + the evidence's own (its "
            "landmarks' and measurements' covariance)")
@@ -627,10 +628,11 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                  r.update.suspect ? " look-alike" : "");
       if (r.update.evidence) {
         const Pose2& j = r.update.jump;
-        log::info("evidence of a pose ", std::hypot(j.x, j.y), " m, ", radToDeg(j.theta),
-                  " deg from the estimate at t ", msg.utime, " (Mahalanobis^2 ",
-                  r.update.jump_mahalanobis_sq, " under the drift covariance): ",
-                  r.update.drift_corrected ? "drift, the particles moved onto it" : "kidnapping");
+        log::info(
+            "evidence of a pose ", std::hypot(j.x, j.y), " m, ", radToDeg(j.theta),
+            " deg from the estimate at t ", msg.utime, " (Mahalanobis^2 ",
+            r.update.jump_mahalanobis_sq, " under the drift covariance): ",
+            r.update.drift_corrected ? "drift, the particles moved towards it" : "kidnapping");
       }
       if (r.update.kidnap_detected) {
         log::warn("kidnapping detected at t ", msg.utime, ", measurement ", msg.seq, " of ",

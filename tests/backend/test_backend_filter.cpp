@@ -1075,6 +1075,47 @@ TEST(ParticleFilter, TheDriftGateWeighsTheEvidenceWithItsMeasurementsOwnCovarian
   for (size_t i = 0; i < d.run.ticks.size(); ++i) EXPECT_FALSE(d.run.kidnapped[i]) << i;
 }
 
+TEST(ParticleFilter, ADriftCorrectionMovesTheParticlesByTheShareOfTheJumpTheirSpreadGivesIt) {
+  // Landmarks 1-3 are mapped from the start pose; then the robot slips 0.7 m
+  // back while its odometry stays still, and landmarks 1 and 2 say so, in
+  // turn every 0.5 s, until their run is evidence. The gate is wide here:
+  // the jump is drift. The evidence is a measurement of the pose like any
+  // other, fused with the particles' mean by the gain of the two
+  // covariances: particles spread wide (the filter knows little of where it
+  // is) move nearly all the way to it (the share of the jump along x, the
+  // slip's direction); particles spread tightly move part of the way, the
+  // rest left to the measurements that follow. (Moving them
+  // all the way, as before, moved a robot onto the error of evidence from
+  // far-away landmarks: reporting home 1021.)
+  const auto at = observationAt;
+  const Pose2 slipped{-0.7, 0, 0};
+  const Pose2 landmark[4] = {{}, {-1, 0, 0}, {0, -1, 0}, {0, 1, 0}};
+  auto correction = [&](double spread_m) {
+    FilterParams p = homeParams(500);
+    p.kidnap.drift_gate_mahalanobis_sq = 1e4;
+    p.kidnap.drift_sigma_scale = 3.0;
+    ParticleFilter pf(p);
+    pf.startAt({}, Eigen::Vector3d(spread_m * spread_m, spread_m * spread_m, 1e-6).asDiagonal());
+    for (int id = 1; id <= 3; ++id) pf.update(at(id, predictMeasurement({}, landmark[id]), 0));
+    for (int k = 0; k < 12; ++k) {
+      const int id = 1 + k % 2;
+      const double before = pf.estimate().mean.x;
+      const UpdateReport r =
+          pf.update(at(id, predictMeasurement(slipped, landmark[id]), 1 + 0.5 * k));
+      EXPECT_FALSE(r.kidnap_detected);
+      if (r.drift_corrected) return (pf.estimate().mean.x - before) / r.jump.x;
+    }
+    ADD_FAILURE() << "no drift correction with spread " << spread_m;
+    return 0.0;
+  };
+  const double wide = correction(0.2);
+  const double tight = correction(0.02);
+  EXPECT_GT(wide, 0.85);
+  EXPECT_LT(wide, 1.1);
+  EXPECT_GT(tight, 0.05);
+  EXPECT_LT(tight, 0.6);
+}
+
 TEST(ParticleFilter, ACarryFarBeyondTheDriftIsStillAKidnapping) {
   size_t kidnap_tick = 0;
   const test::SyntheticWorld world = kidnapWorld(&kidnap_tick);
