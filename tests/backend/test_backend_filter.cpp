@@ -1084,9 +1084,8 @@ TEST(ParticleFilter, ADriftCorrectionMovesTheParticlesByTheShareOfTheJumpTheirSp
   // covariances: particles spread wide (the filter knows little of where it
   // is) move nearly all the way to it (the share of the jump along x, the
   // slip's direction); particles spread tightly move part of the way, the
-  // rest left to the measurements that follow. (Moving them
-  // all the way, as before, moved a robot onto the error of evidence from
-  // far-away landmarks: reporting home 1021.)
+  // rest left to the measurements that follow. (Moving them all the way, as
+  // before, moved a robot onto its evidence's error: reporting home 1021.)
   const auto at = observationAt;
   const Pose2 slipped{-0.7, 0, 0};
   const Pose2 landmark[4] = {{}, {-1, 0, 0}, {0, -1, 0}, {0, 1, 0}};
