@@ -761,12 +761,15 @@ void ParticleFilter::endLowRun() {
 }
 
 void ParticleFilter::noteViewJump(int64_t t) {
-  // A jump within the window of the one before continues its series: the
+  // A jump within the window of its series' first continues the series: the
   // robot can be carried, then turned or carried on (reporting home 1010: a
   // second jump 4.4 s after the carry; landmarks placed between the two then
   // ended every run of inconsistent measurements, and the carry was declared
-  // after 15.6 s).
-  if (!recentViewJump(t)) jumps_since_utime_ = t;
+  // after 15.6 s). Not within the window of the jump before: false jumps
+  // every few seconds (fast turns' motion blur) chained a series back to the
+  // start of the run, every landmark counted as placed after the move, and
+  // none could relocalize the carried robot (generated home 1092).
+  if (!withinViewJumpWindow(jumps_since_utime_, t)) jumps_since_utime_ = t;
   view_jump_utime_ = std::max(view_jump_utime_, t);
   // What was inconsistent before the jump is no evidence of the move the
   // jump shows: the robot was elsewhere then. If it agrees with what comes

@@ -510,7 +510,7 @@ class ParticleFilter {
   std::vector<Implied> low_run_;  // the current run of inconsistent measurements
   int64_t view_jump_utime_ = std::numeric_limits<int64_t>::min();  // the latest view jump
   // The first of the latest series of view jumps, each within
-  // view_jump_window_s of the one before.
+  // view_jump_window_s of the first.
   int64_t jumps_since_utime_ = std::numeric_limits<int64_t>::min();
   bool robot_was_moved_ = false;  // robotWasMoved()
   // While kidnapped with robot_was_moved_ from a view jump: the first jump

@@ -1422,6 +1422,38 @@ TEST(ParticleFilter, InconsistentMeasurementsFromBeforeAViewJumpAreNoEvidenceOfT
   EXPECT_EQ(kidnaps(false, false), 1);  // the control
 }
 
+TEST(ParticleFilter, FalseViewJumpsInARowDoNotMakeTheWholeMapUntrustworthy) {
+  // Fast turns' motion blur makes false view jumps, one every 14 s here
+  // (at -1, 13, 27 and 41 s), each within view_jump_window_s of the one
+  // before. Landmarks 1-3 are mapped at 0 s; at 55 s the robot is carried
+  // 3 m back and its view jumps again. Landmarks placed since the first jump
+  // of a series are taken as placed from the pose the robot was thought to
+  // be at, so they neither propose nor confirm a relocalization. A series
+  // lasts at most view_jump_window_s from its first jump: chained from -1 s,
+  // it would take in the whole map and the carried robot would never
+  // relocalize (generated home 1092: kidnapped from 65 s to the end, 132 s).
+  const auto at = observationAt;
+  const Pose2 carried_to{-3, 0, 0};
+  const Pose2 landmark3{0, 1, 0};
+  FilterParams p = homeParams(200);
+  p.kidnap.view_jump_window_s = 20.0;
+  p.kidnap.moved_evidence_s = 5.0;
+  auto pf = filterWithThreeLandmarks(p, landmark3.between(Pose2{}));
+  for (const double t : {-1.0, 13.0, 27.0, 41.0, 55.0}) pf->noteViewJump(at(0, {}, t).utime);
+  bool detected = false;
+  for (int k = 0; k < 60 && !(detected && !pf->kidnapped()); ++k) {
+    const double t = 55.5 + 0.5 * k;
+    const int64_t id = 1 + k % 3;
+    const Observation obs = id == 3 ? at(3, predictMeasurement(carried_to, landmark3), t)
+                                    : seenFromThreeMetresBack(id == 2, t);
+    detected = pf->update(obs).kidnap_detected || detected;
+  }
+  EXPECT_TRUE(detected);
+  EXPECT_FALSE(pf->kidnapped()) << "never relocalized";
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.15);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.15);
+}
+
 TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
   // Landmarks 1-3 are mapped from the start pose at t = 0; at 1 s the robot
   // is carried 3 m back and a front-end sees its view jump. From 1.1 s the
