@@ -479,6 +479,9 @@ class ParticleFilter {
   // A robot known to have been moved relocalized no more than
   // view_jump_window_s before t.
   bool recentlyRelocalizedAfterAMove(int64_t t) const;
+  // The particles' covariance scaled by drift_sigma_scale^2: their side of
+  // the drift covariance (KidnapParams).
+  Eigen::Matrix3d driftSpread(const PoseEstimate& from) const;
   // The jump from the estimate to the evidence under the drift covariance
   // (KidnapParams): the particles' spread, scaled, and the evidence's own.
   double driftMahalanobisSq(const PoseEstimate& from, const Evidence& to) const;
