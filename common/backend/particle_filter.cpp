@@ -177,6 +177,7 @@ void FilterParams::validate() const {
           "kidnap counts must be >= 1");
   require(kidnap.detect_min_span_s >= 0 && kidnap.suspect_after >= 0 && kidnap.cancel_count >= 0,
           "kidnap detect_min_span_s, suspect_after and cancel_count must be >= 0");
+  require(kidnap.detect_dissent_ratio >= 0, "kidnap detect_dissent_ratio must be >= 0");
   require(kidnap.cluster_xy_m > 0 && kidnap.cluster_theta_rad > 0,
           "kidnap cluster tolerances must be > 0");
   require(std::isfinite(kidnap.retest_margin_s), "kidnap retest_margin_s must be finite");
@@ -574,8 +575,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       const Eigen::Vector3d jump = jumpBetween(from, to);
       rep->jump = {jump.x(), jump.y(), jump.z()};
       rep->jump_mahalanobis_sq = driftMahalanobisSq(now, *evidence);
-      if (kp.drift_gate_mahalanobis_sq > 0 &&
-          rep->jump_mahalanobis_sq <= kp.drift_gate_mahalanobis_sq) {
+      if (withinDriftGate(rep->jump_mahalanobis_sq)) {
         // Drift: every particle moves (keeping its spread and map) by the
         // share of the jump the two uncertainties give it; this measurement
         // then weighs them as usual.
@@ -920,9 +920,33 @@ std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
   const bool skip_wandering = !recentViewJump(low_run_.back().utime);
   for (size_t i = 0; i < low_run_.size(); ++i) {
     Evidence at;
-    if (agreeingLandmarks(low_run_, i, &at, skip_wandering) >= kp.detect_landmarks) return at;
+    const int agreeing = agreeingLandmarks(low_run_, i, &at, skip_wandering);
+    if (agreeing < kp.detect_landmarks) continue;
+    // Outvoted: a busy repeated pattern, not a move (KidnapParams::detect_dissent_ratio).
+    if (kp.detect_dissent_ratio > 0 && skip_wandering &&
+        !withinDriftGate(driftMahalanobisSq(estimate(), at)) &&
+        dissentingLandmarks(low_run_, carriedToNow(low_run_[i])) >=
+            kp.detect_dissent_ratio * agreeing)
+      continue;
+    return at;
   }
   return std::nullopt;
+}
+
+int ParticleFilter::dissentingLandmarks(const std::vector<Implied>& run, const Pose2& at) const {
+  std::vector<int64_t> agreeing, dissenting;
+  for (const Implied& m : run) {
+    auto& ids = clusterOffset(carriedToNow(m), at) <= 1 ? agreeing : dissenting;
+    if (std::find(ids.begin(), ids.end(), m.landmark_id) == ids.end()) ids.push_back(m.landmark_id);
+  }
+  return static_cast<int>(std::count_if(dissenting.begin(), dissenting.end(), [&](int64_t id) {
+    return std::find(agreeing.begin(), agreeing.end(), id) == agreeing.end();
+  }));
+}
+
+bool ParticleFilter::withinDriftGate(double jump_mahalanobis_sq) const {
+  const double gate = params_.kidnap.drift_gate_mahalanobis_sq;
+  return gate > 0 && jump_mahalanobis_sq <= gate;
 }
 
 Eigen::Matrix3d ParticleFilter::driftSpread(const PoseEstimate& from) const {

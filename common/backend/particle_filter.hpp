@@ -129,6 +129,17 @@ struct KidnapParams {
   // 0: every such evidence is a kidnapping.
   double drift_gate_mahalanobis_sq = 0.0;
   double drift_sigma_scale = 1.0;
+  // Evidence beyond the drift gate, away from a view jump, declares a
+  // kidnapping only if the run's dissenters, distinct landmarks none of
+  // whose implied poses agree with it (cluster_*), are fewer than
+  // detect_dissent_ratio x its agreeing ones. A carried robot's landmarks
+  // agree on where it is; a busy repeated pattern (wallpaper and tiles in
+  // view at once) scatters its look-alikes over several wrong places, and
+  // two of them agreeing there is chance (generated home 1116: four
+  // landmarks 0.65-2 m off in four directions for 20 s, two of them within
+  // 0.5 m of each other). Drift corrections are not held back: refusing one
+  // leaves the drift to grow into a kidnapping. 0: off.
+  double detect_dissent_ratio = 0.0;
   // The hypothesis a kidnapping replaced stays alive until it is resolved:
   // the particles as they were when it was declared, carried by the
   // odometry with the motion model's noise. A kidnapping is rare and a
@@ -396,6 +407,12 @@ class ParticleFilter {
   // it (kWanderingClusterScale).
   int agreeingLandmarks(const std::vector<Implied>& run, size_t i, Evidence* cluster = nullptr,
                         bool skip_wandering = false) const;
+  // Distinct landmarks of `run` none of whose implied poses, carried to
+  // now, agree with `at` (KidnapParams::cluster_*).
+  int dissentingLandmarks(const std::vector<Implied>& run, const Pose2& at) const;
+  // Evidence this close to the estimate is drift, not a kidnapping
+  // (KidnapParams::drift_gate_mahalanobis_sq).
+  bool withinDriftGate(double jump_mahalanobis_sq) const;
   // Where the inconsistent run says the robot is, if it is evidence enough.
   std::optional<Evidence> kidnapEvidence(const KidnapParams& kp) const;
   // The particles' log weights, normalised so that their exponentials sum to 1.

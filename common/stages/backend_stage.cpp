@@ -110,6 +110,10 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("drift_sigma_scale", &K::drift_sigma_scale, InRange{1e-3, 1000}, "",
            "...under this scale² × the particles' covariance + the evidence's own (its "
            "landmarks' and measurements' covariance)")
+      .add("detect_dissent_ratio", &K::detect_dissent_ratio, InRange{0, 1000}, "",
+           "evidence beyond the drift gate, away from a view jump, declares a kidnapping only if "
+           "the run's landmarks that put the robot elsewhere are fewer than this x those that "
+           "agree on it (a busy repeated pattern scatters its look-alikes); 0: off")
       .add("cancel_count", &K::cancel_count, InRange{0, 1000}, "",
            "while kidnapped, this many measurements that agree with the particles as they were "
            "when it was declared (carried by the odometry) cancel it: look-alikes declared it; "

@@ -89,6 +89,8 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"backend.kidnap.drift_gate_mahalanobis_sq",
        "drift or kidnapping (commit 5553833; the paper has none)"},
       {"backend.kidnap.drift_sigma_scale", "the motion model's sigmas are a guess"},
+      {"backend.kidnap.detect_dissent_ratio",
+       "busy repeated patterns (generated home 1116; the paper has none)"},
       {"backend.measurement_sigma_xy_m",
        "Sigma_vis measured on generated homes (docs/backend.md); the library keeps the paper's"},
       {"backend.measurement_sigma_theta_deg", "as measurement_sigma_xy_m"},
