@@ -751,35 +751,43 @@ TEST(ParticleFilter, ARealKidnappingIsStillDetectedAmongRepeatedPatterns) {
 
 namespace {
 
-// Two landmarks mapped from the origin, then recognised, for 3 s, at two
-// wrong places in turn, each of them now at one, now at the other (a
-// wallpaper that repeats across the home); the robot stands still. Returns
-// how many kidnappings that declared. view_jump_at_us >= 0: a camera's view
-// jumped then.
+// Landmarks 1, 2, ... mapped from the origin, each first measured at
+// `made_from[k]`, then recognised for 3 s, in turn, as if the robot stood
+// at `seen_from(i, k)` (i: the measurement, k: the landmark's index) while
+// it stands still. Returns how many kidnappings that declared.
+int kidnapsWhileRecognisedAt(ParticleFilter& pf, const std::vector<Pose2>& made_from,
+                             const std::function<Pose2(int, int)>& seen_from) {
+  const int n = static_cast<int>(made_from.size());
+  std::vector<Pose2> landmark;
+  for (int k = 0; k < n; ++k) {
+    Observation first{k + 1, made_from[k]};
+    first.utime = 1;
+    pf.update(first);
+    landmark.push_back(Pose2{}.compose(made_from[k].inverse()));
+  }
+  int kidnaps = 0;
+  for (int i = 0; i < 12; ++i) {
+    const int k = i % n;
+    Observation obs{k + 1, predictMeasurement(seen_from(i, k), landmark[k])};
+    obs.utime = 1'000'000 + i * 250'000;
+    kidnaps += pf.update(obs).kidnap_detected;
+  }
+  return kidnaps;
+}
+
+// Two landmarks recognised at two wrong places in turn, each of them now at
+// one, now at the other (a wallpaper that repeats across the home).
+// view_jump_at_us >= 0: a camera's view jumped then.
 int kidnapsFromAPatternAtTwoPlaces(int64_t view_jump_at_us) {
   FilterParams p = homeParams(200);
   p.kidnap.cancel_count = 0;  // nothing to cancel it with: the pattern is all there is in view
   p.kidnap.view_jump_window_s = 5.0;
   ParticleFilter pf(p);
-  const Pose2 made_from[2] = {{1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}};  // y at creation
-  Pose2 landmark[2];
-  for (int k = 0; k < 2; ++k) {
-    Observation first{k + 1, made_from[k]};
-    first.utime = 1;
-    pf.update(first);
-    landmark[k] = Pose2{}.compose(made_from[k].inverse());
-  }
   if (view_jump_at_us >= 0) pf.noteViewJump(view_jump_at_us);
   const Pose2 wrong_place[2] = {{4.0, 0.5, 0.3}, {-1.0, 2.5, -1.2}};
-  int kidnaps = 0;
-  for (int i = 0; i < 12; ++i) {
-    const int k = i % 2;
-    const Pose2& at = wrong_place[(i / 2 + k) % 2];  // each landmark alternates between them
-    Observation obs{k + 1, predictMeasurement(at, landmark[k])};
-    obs.utime = 1'000'000 + i * 250'000;
-    kidnaps += pf.update(obs).kidnap_detected;
-  }
-  return kidnaps;
+  return kidnapsWhileRecognisedAt(pf, {{1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}}, [&](int i, int k) {
+    return wrong_place[(i / 2 + k) % 2];  // each landmark alternates between them
+  });
 }
 
 }  // namespace
@@ -793,34 +801,18 @@ TEST(ParticleFilter, LandmarksRecognisedAtMoreThanOneWrongPlaceGiveNoKidnapEvide
 
 namespace {
 
-// Three landmarks mapped from the origin, then recognised for 3 s at wrong
-// places while the robot stands still: landmarks 1 and 2 both put it at one
-// place 4 m away, landmark 3 at `third_at` (a busy repeated pattern scatters
-// its look-alikes; a carried robot's landmarks all agree). Returns how many
-// kidnappings that declared.
+// Three landmarks recognised at wrong places: landmarks 1 and 2 both put
+// the robot at one place 4 m away, landmark 3 at `third_at` (a busy
+// repeated pattern scatters its look-alikes; a carried robot's landmarks
+// all agree).
 int kidnapsWithAThirdLandmarkAt(const Pose2& third_at, double dissent_ratio) {
   FilterParams p = homeParams(200);
   p.kidnap.cancel_count = 0;  // nothing in view agrees with the old pose either
   p.kidnap.detect_dissent_ratio = dissent_ratio;
   ParticleFilter pf(p);
-  const Pose2 made_from[3] = {{1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}, {0.8, 0.1, 0.3}};
-  Pose2 landmark[3];
-  for (int k = 0; k < 3; ++k) {
-    Observation first{k + 1, made_from[k]};
-    first.utime = 1;
-    pf.update(first);
-    landmark[k] = Pose2{}.compose(made_from[k].inverse());
-  }
   const Pose2 wrong_place{4.0, 0.5, 0.3};
-  int kidnaps = 0;
-  for (int i = 0; i < 12; ++i) {
-    const int k = i % 3;
-    const Pose2& at = k == 2 ? third_at : wrong_place;
-    Observation obs{k + 1, predictMeasurement(at, landmark[k])};
-    obs.utime = 1'000'000 + i * 250'000;
-    kidnaps += pf.update(obs).kidnap_detected;
-  }
-  return kidnaps;
+  return kidnapsWhileRecognisedAt(pf, {{1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}, {0.8, 0.1, 0.3}},
+                                  [&](int, int k) { return k == 2 ? third_at : wrong_place; });
 }
 
 }  // namespace
