@@ -923,10 +923,11 @@ std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
     const int agreeing = agreeingLandmarks(low_run_, i, &at, skip_wandering);
     if (agreeing < kp.detect_landmarks) continue;
     // Outvoted: a busy repeated pattern, not a move (KidnapParams::detect_dissent_ratio).
+    // The drift test last: it needs the particles' estimate, O(particles).
     if (kp.detect_dissent_ratio > 0 && skip_wandering &&
-        !withinDriftGate(driftMahalanobisSq(estimate(), at)) &&
         dissentingLandmarks(low_run_, carriedToNow(low_run_[i])) >=
-            kp.detect_dissent_ratio * agreeing)
+            kp.detect_dissent_ratio * agreeing &&
+        !withinDriftGate(driftMahalanobisSq(estimate(), at)))
       continue;
     return at;
   }
