@@ -209,6 +209,9 @@ int64_t AppearanceSlam::addState(const Snapshot& z) {
   chi2_cache_.assign(states_.size(), -1.0);
   chi2_turned_cache_.assign(states_.size(), -1.0);
   seen_.resize(states_.size(), 0);
+  view_seen_.resize(states_.size(), 0);
+  view_log_.resize(states_.size());
+  view_at_.resize(states_.size());
   trace_pose_.resize(states_.size());
   trace_cov_.resize(states_.size());
   return states_.back().id;
@@ -225,14 +228,56 @@ double AppearanceSlam::observationLog(int64_t state_id, const std::vector<Histog
   return -params_.beta * std::log(std::max(chi2, params_.min_chi2));
 }
 
-double AppearanceSlam::bestObservationLog(int64_t state_id, const std::vector<Histogram>& z,
-                                          bool* turned) {
-  const double as_seen = observationLog(state_id, z);
+void AppearanceSlam::collectViews(const PathNode* path, const std::vector<Histogram>& z) {
+  ++view_generation_;
+  if (!params_.relocalization_views) return;
+  for (const PathNode* n = path; n; n = n->parent.get()) {
+    if (n->is_new || n->snapshot_id < 0 || n->snapshot_id == n->state_id) continue;
+    const size_t s = static_cast<size_t>(n->state_id);
+    if (view_seen_[s] != view_generation_) {
+      view_seen_[s] = view_generation_;
+      view_log_[s] = {-std::numeric_limits<double>::infinity(),
+                      -std::numeric_limits<double>::infinity()};
+      view_at_[s] = {};
+    }
+    // The robot now facing the state's way (or turned around) faces this
+    // view's way if the visit did too (or did not).
+    for (const bool turned : {false, true}) {
+      if (turned && !can_turn_) break;
+      const bool against_view = turned != n->turned();
+      const double obs = observationLog(n->snapshot_id, z, against_view);
+      double& best = view_log_[s][turned ? 1 : 0];
+      if (obs > best) {
+        best = obs;
+        // Where the robot stood at that visit, facing the view's way or turned from it.
+        view_at_[s][turned ? 1 : 0] =
+            against_view ? n->offset.compose(Pose2{0, 0, M_PI}) : n->offset;
+      }
+    }
+  }
+}
+
+double AppearanceSlam::bestViewLog(int64_t state_id, const std::vector<Histogram>& z, bool* turned,
+                                   Pose2* at) {
+  Pose2 at_seen, at_turned;
+  const double as_seen = viewLog(state_id, z, false, &at_seen);
   *turned = false;
+  if (at) *at = at_seen;
   if (!can_turn_) return as_seen;
-  const double turned_around = observationLog(state_id, z, true);
+  const double turned_around = viewLog(state_id, z, true, &at_turned);
   *turned = turned_around > as_seen;
+  if (at && *turned) *at = at_turned;
   return *turned ? turned_around : as_seen;
+}
+
+double AppearanceSlam::viewLog(int64_t state_id, const std::vector<Histogram>& z, bool turned,
+                               Pose2* at) {
+  const double own = observationLog(state_id, z, turned);
+  const size_t s = static_cast<size_t>(state_id);
+  const int t = turned ? 1 : 0;
+  const bool by_view = view_seen_[s] == view_generation_ && view_log_[s][t] > own;
+  if (at) *at = by_view ? view_at_[s][t] : Pose2{0, 0, turned ? M_PI : 0.0};
+  return by_view ? view_log_[s][t] : own;
 }
 
 void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>& cameras) {
@@ -267,6 +312,7 @@ void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>
     n->state_id = v.state_id;
     n->step = -1;
     n->is_new = !visited[static_cast<size_t>(v.state_id)];
+    n->snapshot_id = n->is_new ? v.state_id : -1;
     visited[static_cast<size_t>(v.state_id)] = true;
     n->link = v.link;
     if (!node) n->link.known = false;
@@ -279,6 +325,9 @@ void AppearanceSlam::loadMap(const SavedMap& map, const std::vector<std::string>
   chi2_cache_.assign(states_.size(), -1.0);
   chi2_turned_cache_.assign(states_.size(), -1.0);
   seen_.assign(states_.size(), 0);
+  view_seen_.assign(states_.size(), 0);
+  view_log_.assign(states_.size(), {});
+  view_at_.assign(states_.size(), {});
   trace_pose_.resize(states_.size());
   trace_cov_.resize(states_.size());
 }
@@ -457,15 +506,16 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   // jumped: a snapshot that looks no more like h's last state than a new
   // place would is not the next view along a corridor, and a carried robot
   // is often put down beside the states it made just before.
+  collectViews(h.node.get(), z.histograms);
   bool last_turned = false;
-  const bool view_jumped =
-      bestObservationLog(h.node->state_id, z.histograms, &last_turned) <= logNew();
+  const bool view_jumped = bestViewLog(h.node->state_id, z.histograms, &last_turned) <= logNew();
   ++generation_;
   for (const int64_t s : reachable) seen_[static_cast<size_t>(s)] = generation_;
   struct Match {
     double log_likelihood;
     int64_t state;
     bool turned;
+    Pose2 at;  // where in the state: where the best view of it was taken
   };
   std::vector<Match> matches;
   // log P(z | x_k) a seed needs: chi2 at most relocalization_match_ratio times the new state's.
@@ -479,9 +529,10 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
     if (recent) continue;
     // As it was seen or turned around, whichever looks more like the snapshot.
     bool turned = false;
-    const double obs = bestObservationLog(n->state_id, z.histograms, &turned);
+    Pose2 at;
+    const double obs = bestViewLog(n->state_id, z.histograms, &turned, &at);
     // Only a state that looks clearly more like the snapshot than a new place would.
-    if (obs > log_needed) matches.push_back({obs, n->state_id, turned});
+    if (obs > log_needed) matches.push_back({obs, n->state_id, turned, at});
   }
   if (matches.empty()) return;
   const size_t k = std::min(matches.size(), static_cast<size_t>(params_.relocalization_candidates));
@@ -501,8 +552,8 @@ void AppearanceSlam::seedRelocalizations(const Hypothesis& h, const Snapshot& z,
   const Eigen::Matrix3d place = placeCovariance();
   for (size_t i = 0; i < k; ++i) {
     const Match& m = matches[i];
-    children->push_back({h.node, m.state, false, put_down, log_prior + m.log_likelihood,
-                         Pose2{0, 0, m.turned ? M_PI : 0.0}, place});
+    children->push_back(
+        {h.node, m.state, false, put_down, log_prior + m.log_likelihood, m.at, place});
   }
 }
 
@@ -626,6 +677,7 @@ StepResult AppearanceSlam::select(std::vector<Child> children, int64_t new_state
     n->state_id = c.state_id;
     n->step = step_;
     n->is_new = c.is_new;
+    n->snapshot_id = new_state;
     n->link = c.link;
     n->offset = c.offset;
     n->offset_covariance = c.offset_covariance;

@@ -87,6 +87,15 @@
 // hypothesis for being half a metre beside the states it matches). The
 // saved path folds the offsets into its links (state to state).
 //
+// Every view of a state (an addition, for the seeds). A revisit's snapshot is
+// kept as another view of the state it revisits (PathNode::snapshot_id): the
+// robot passed the place again, a little beside or turned, and saw it
+// differently. A relocalization seed matches a state by the best of the
+// views the hypothesis' path took there, and puts the robot where that view
+// was taken (the visit's offset). The paper's observation of a revisit (the
+// state's own snapshot) is unchanged: with the views there too, revisits
+// drifted to states whose views were taken metres from their snapshot.
+//
 // Turned around (an addition). With cameras that face each other's way
 // (setTurnedCameras: a forward and a backward camera), a robot back at a
 // state facing the other way sees with each camera what the other saw
@@ -108,6 +117,8 @@
 // hypothesis (the first, above) is the map the process publishes and saves.
 
 #include <Eigen/Core>
+#include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -177,6 +188,13 @@ struct PathNode {
   Eigen::Matrix3d offset_covariance = Eigen::Matrix3d::Zero();
   int32_t path_length = 1;  // visits from the root
   int32_t num_states = 1;   // states this path created (its map's size)
+  // The snapshot taken at this visit (an id among the stored snapshots): the
+  // state's own for the visit that created it; for a revisit, another view
+  // of the state (see "Every view of a state" above). -1: none (the revisits
+  // of a loaded map, whose snapshots are not saved).
+  int64_t snapshot_id = -1;
+  // The robot faced the other way from the state's snapshot (a turned revisit).
+  bool turned() const { return std::abs(offset.theta) > M_PI / 2; }
 
   PathNode() = default;
   PathNode(const PathNode&) = delete;
@@ -217,6 +235,10 @@ struct SlamParams {
   // a seed that barely beats "somewhere new" is a look-alike more often
   // than the place (docs/appearance.md).
   double relocalization_match_ratio = 0.5;
+  // A seed matches a state by the best of the snapshots the path took there
+  // (its own and its revisits'), not by its first alone (see "Every view of
+  // a state" above).
+  bool relocalization_views = true;
 };
 
 // A saved map: the states of the most believed hypothesis and its path in
@@ -332,9 +354,19 @@ class AppearanceSlam {
   // log P(z | x): the robot in the state as its snapshot was taken, or
   // turned around (each camera compared with the one that then faces its way).
   double observationLog(int64_t state_id, const std::vector<Histogram>& z, bool turned = false);
-  // The larger of the two (turned only with turned cameras); *turned says which.
-  double bestObservationLog(int64_t state_id, const std::vector<Histogram>& z, bool* turned);
   double turnedDistance(const std::vector<Histogram>& z, const std::vector<Histogram>& state) const;
+  // log P(z | x) by every view a path has of its states, for the seeds
+  // (relocalization_views): collectViews(path) notes, per state, the best of
+  // its revisits' snapshots as seen and turned around; viewLog then gives
+  // the larger of that and the state's own snapshot (observationLog).
+  void collectViews(const PathNode* path, const std::vector<Histogram>& z);
+  // *at (if given): where in the state the robot is if the match holds (where
+  // the matching view was taken, facing as the robot does).
+  double viewLog(int64_t state_id, const std::vector<Histogram>& z, bool turned,
+                 Pose2* at = nullptr);
+  // The larger of the two (turned only with turned cameras); *turned says which.
+  double bestViewLog(int64_t state_id, const std::vector<Histogram>& z, bool* turned,
+                     Pose2* at = nullptr);
   void expand(const Hypothesis& h, const Link& action, const Snapshot& z, int64_t new_state,
               std::vector<Child>* children, int* candidates, std::vector<int64_t>* reachable);
   static double maxLogWeight(const std::vector<Child>& children);  // -inf if none is finite
@@ -370,6 +402,11 @@ class AppearanceSlam {
   std::vector<Pose2> chain_pose_;
   std::vector<Eigen::Matrix3d> chain_cov_;
   std::vector<int64_t> candidates_;
+  // collectViews' notes: valid where view_generation_ matches.
+  std::vector<uint32_t> view_seen_;
+  std::vector<std::array<double, 2>> view_log_;  // as seen, turned around
+  std::vector<std::array<Pose2, 2>> view_at_;    // where in the state that view was taken
+  uint32_t view_generation_ = 0;
 };
 
 }  // namespace vslam::appearance

@@ -142,6 +142,10 @@ config::ParamTable<P> hypothesisTreeKeys() {
           "snapshot), unless the view jumped: the snapshot looks no more like the path's last "
           "state than a new place would")
       .required()
+      .add(
+          "relocalization_views", [](auto& p) -> auto& { return p.slam.relocalization_views; },
+          "a seed matches a state by the best of the snapshots a path took there, its "
+          "revisits' too, not by its first snapshot alone")
       .add("turned_revisits", &P::turned_revisits,
            "a state can be revisited and seeded facing the other way, each camera compared with "
            "the one that faced its way then (cameras of the robot file that face opposite ways, "

@@ -436,6 +436,62 @@ TEST(RelocalizationSeeds, ACarriedRobotRelocalizesBesideTheStatesItJustMade) {
   EXPECT_LE(first_correct, 1) << "re-localized only at an older state";
 }
 
+// Every view of a state. On its second lap the robot sees place 3 changed
+// (half its view: a door open), and the trace takes that view as a revisit
+// of state 3. Carried back there later, it sees place 3 as on the second
+// lap: state 3's own snapshot is not a clear enough match to seed it, the
+// revisit's snapshot is. Without relocalization_views only the state's own
+// snapshot counts and state 3 is never seeded.
+TEST(RelocalizationSeeds, AStateIsSeededByTheViewItsRevisitTook) {
+  // Place 3 with half its weight moved to a look no lap place has (bin 15
+  // and 15 + 5), the noise of `visit`.
+  const auto changedView = [](int visit) {
+    Snapshot z = noisyView(3, visit);
+    Histogram& h = z.histograms[0];
+    for (float& v : h) v *= 0.5f;
+    h[kBins - 1] += 0.3f;
+    h[(kBins - 1 + 5) % kBins] += 0.2f;
+    return z;
+  };
+  const Snapshot own = noisyView(3, 0), lap_two = changedView(1), carried = changedView(2);
+  // The premise: the changed view is far from state 3's own snapshot, close
+  // to the second lap's.
+  ASSERT_GT(AppearanceSlam::distance(carried.histograms, own.histograms),
+            3 * AppearanceSlam::distance(carried.histograms, lap_two.histograms));
+  for (const bool views : {true, false}) {
+    SlamParams p = seedingParams();
+    p.relocalization_views = views;
+    // A seed needs chi2 at most 0.2 of the new state's: state 3's own
+    // snapshot is not that close to the changed view.
+    p.relocalization_match_ratio = 0.2;
+    AppearanceSlam slam(p, 1, kBins);
+    slam.setActionModel(model());
+    slam.initialize(noisyView(0, 0));
+    for (int i = 0; i < kPlaces - 1; ++i) slam.step(actionOf(kLap[i]), noisyView(i + 1, 0));
+    // The second lap, places 0 to 8; place 3 changed.
+    int place = 0;
+    StepResult r = slam.step(actionOf(kLap[kPlaces - 1]), noisyView(place, 1));
+    while (place < 8) {
+      const char a = kLap[place];
+      place += 1;
+      r = slam.step(actionOf(a), place == 3 ? lap_two : noisyView(place, 1));
+      if (place == 3) {
+        ASSERT_FALSE(r.best().is_new_state) << "the changed view was not taken as a revisit";
+        ASSERT_EQ(r.best().state_id, 3);
+      }
+    }
+    ASSERT_FALSE(r.best().is_new_state);
+    // Odometry: on from place 8 to place 9. The robot: put down at place 3.
+    r = slam.step(actionOf(kLap[8]), carried);
+    const bool seeded_at_3 = revisitedStates(r).count(3) > 0;
+    if (views) {
+      EXPECT_TRUE(seeded_at_3) << "the revisit's view did not seed its state";
+    } else {
+      EXPECT_FALSE(seeded_at_3) << "state 3's own snapshot should not match the changed view";
+    }
+  }
+}
+
 // Carried while it follows its map: after the lap the robot drives on along
 // it (places 0 to 3, each a revisit), then it is put down at place 8 while
 // odometry says it went on to place 4. The revisits traced from place 3 do
