@@ -94,7 +94,8 @@
 // views the hypothesis' path took there, and puts the robot where that view
 // was taken (the visit's offset). The paper's observation of a revisit (the
 // state's own snapshot) is unchanged: with the views there too, revisits
-// drifted to states whose views were taken metres from their snapshot.
+// went to states whose views, not whose snapshots, were taken near the
+// robot (docs/appearance.md).
 //
 // Turned around (an addition). With cameras that face each other's way
 // (setTurnedCameras: a forward and a backward camera), a robot back at a
