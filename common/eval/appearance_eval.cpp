@@ -171,15 +171,6 @@ std::optional<std::string> oppositeCameras(const AppearanceLog& in) {
   return std::nullopt;
 }
 
-// A calibration message, told by its type's fingerprint (any channel).
-bool isCalibration(const LogEventRef& e) {
-  if (e.event.datalen < 8) return false;
-  const auto* d = static_cast<const uint8_t*>(e.event.data);
-  uint64_t hash = 0;
-  for (int i = 0; i < 8; ++i) hash = (hash << 8) | d[i];
-  return static_cast<int64_t>(hash) == vslam::camera_calibration_t::getHash();
-}
-
 // Reads the log's channels; DataError without steps or ground truth. Sets
 // the report's map counts from the last map message.
 AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions& options,
@@ -201,7 +192,7 @@ AppearanceLog readAppearanceLog(const fs::path& log, const AppearanceEvalOptions
       if (!m.states.empty()) in.cameras = m.states.front().cameras;
       r->map_states = m.num_states;
       r->map_links = m.num_links;
-    } else if (isCalibration(e)) {
+    } else if (isEventOf<vslam::camera_calibration_t>(e)) {
       // Only says whether states count either way: a damaged one is named
       // and skipped, not a reason to judge nothing.
       try {

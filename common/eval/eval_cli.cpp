@@ -243,8 +243,8 @@ void addMeasurementOptions(CLI::App& app, MeasurementArgs& a) {
 int runMeasurements(const MeasurementArgs& a, std::ostream& out) {
   if (!a.log) throw UsageError("--measurements needs a LOG");
   MeasurementLog m = readMeasurementLog(*a.log, a.options);
-  MeasurementReport report =
-      evaluateMeasurements(m.reference, std::move(m.samples), m.creations, a.eval);
+  MeasurementReport report = evaluateMeasurements(m.reference, std::move(m.samples), m.creations,
+                                                  a.eval, m.camera_heading_rad);
   report.input = a.log->string();
   printMeasurementReport(out, report);
   if (a.csv) {

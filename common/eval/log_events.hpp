@@ -27,6 +27,12 @@ struct LogEventRef {
   long offset;  // byte offset of the event in the file
 };
 
+// Whether an event's fingerprint is Msg's: a type found on any channel.
+template <class Msg>
+bool isEventOf(const LogEventRef& ref) {
+  return fingerprint(ref.event.data, ref.event.datalen) == Msg::getHash();
+}
+
 // Calls visit(ref) for every event of the log, in order. Throws DataError if
 // the file is missing, a directory, not a log, or damaged anywhere. Returns
 // the number of events per channel.

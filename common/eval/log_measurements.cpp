@@ -1,12 +1,16 @@
 #include "eval/log_measurements.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
+#include <vslam/camera_calibration_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
 #include "eval/errors.hpp"
 #include "eval/log_events.hpp"
+#include "util/log.hpp"
 
 namespace vslam::eval {
 
@@ -59,6 +63,19 @@ MeasurementLog readMeasurementLog(const std::filesystem::path& log,
       out.creations.emplace(
           u.landmark.landmark_id,
           LandmarkCreationTime{u.landmark.created_utime * 1e-6, u.landmark.camera});
+    } else if (isEventOf<vslam::camera_calibration_t>(ref)) {
+      // Only for the view changes: a damaged one is named and skipped.
+      try {
+        const auto c = decodeEvent<vslam::camera_calibration_t>(ref, "vslam.camera_calibration_t");
+        const Eigen::Quaterniond q(c.robot_q_camera[0], c.robot_q_camera[1], c.robot_q_camera[2],
+                                   c.robot_q_camera[3]);
+        // The optical axis (OpenCV's camera z) in the robot frame.
+        const Eigen::Vector3d axis = q.normalized().toRotationMatrix().col(2);
+        if (std::isfinite(axis.x()) && std::isfinite(axis.y()) && axis.head<2>().norm() > 1e-6)
+          out.camera_heading_rad[c.camera] = std::atan2(axis.y(), axis.x());
+      } catch (const DataError& err) {
+        log::warn(err.what(), ": skipped");
+      }
     }
   });
   const std::string name = log.string();

@@ -1,8 +1,9 @@
 #pragma once
 // Reads what `vslam-eval --measurements` scores from an LCM log: the visual
 // measurements (vslam.visual_measurement_t), the landmarks' creation times
-// (vslam.landmark_update_t on the proposal and update channels) and ground
-// truth (vslam.ground_truth_pose_t).
+// (vslam.landmark_update_t on the proposal and update channels), ground
+// truth (vslam.ground_truth_pose_t) and the cameras' mounting
+// (vslam.camera_calibration_t).
 
 #include <filesystem>
 #include <string>
@@ -30,6 +31,9 @@ struct MeasurementLog {
   Trajectory reference;
   std::vector<MeasurementSample> samples;
   std::map<int64_t, LandmarkCreationTime> creations;
+  // Each camera's optical axis heading on the robot, from its
+  // vslam.camera_calibration_t (any channel; the newest wins).
+  std::map<std::string, double> camera_heading_rad;
 };
 
 // Throws DataError for an unreadable or damaged log, or when the reference or

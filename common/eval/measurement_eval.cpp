@@ -69,7 +69,61 @@ std::string percent(int64_t part, int64_t whole) {
 
 std::string edge(double cm) { return fmt("%g", cm); }
 
+// Bins [0, e0), [e0, e1), ..., [e_last, inf).
+std::vector<MeasurementErrorBin> binsOf(const std::vector<double>& edges) {
+  std::vector<MeasurementErrorBin> bins;
+  double low = 0;
+  for (const double high : edges) {
+    bins.push_back({low, high});
+    low = high;
+  }
+  bins.push_back({low, std::numeric_limits<double>::infinity()});
+  return bins;
+}
+
+// Fills each bin with the accepted measurements whose key falls in it
+// (key NaN: none).
+void fillBins(std::vector<MeasurementErrorBin>* bins,
+              const std::vector<const ScoredMeasurement*>& accepted,
+              const std::vector<MeasurementSample>& samples,
+              double (*key)(const ScoredMeasurement&), const MeasurementEvalOptions& o) {
+  for (MeasurementErrorBin& bin : *bins) {
+    std::vector<double> xy, heading;
+    int64_t gross = 0;
+    for (const ScoredMeasurement* sc : accepted) {
+      const double k = key(*sc);
+      if (!(k >= bin.low && k < bin.high)) continue;
+      const MeasurementSample& s = samples[sc->index];
+      xy.push_back(s.dx - sc->true_dx);
+      xy.push_back(s.dy - sc->true_dy);
+      heading.push_back(sc->signed_heading_error_rad);
+      gross += sc->xy_error_m > o.gross_xy_m ||
+               sc->heading_error_rad > o.gross_heading_deg * M_PI / 180.0;
+    }
+    bin.count = static_cast<int64_t>(heading.size());
+    bin.robust_sigma_xy_m = robustSigma(std::move(xy));
+    bin.robust_sigma_heading_rad = robustSigma(std::move(heading));
+    bin.gross_fraction = bin.count > 0 ? static_cast<double>(gross) / static_cast<double>(bin.count)
+                                       : std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
 }  // namespace
+
+double robustSigma(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  auto median = [](std::vector<double>& v) {
+    const size_t mid = v.size() / 2;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+    double m = v[mid];
+    if (v.size() % 2 == 0)
+      m = 0.5 * (m + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
+    return m;
+  };
+  const double centre = median(values);
+  for (double& v : values) v = std::abs(v - centre);
+  return 1.4826 * median(values);
+}
 
 int64_t MeasurementReport::acceptedCount() const {
   const auto it = verdicts.find(MeasurementVerdict::kAccepted);
@@ -85,7 +139,8 @@ double MeasurementReport::acceptedFraction() const {
 MeasurementReport evaluateMeasurements(const Trajectory& reference,
                                        std::vector<MeasurementSample> samples,
                                        const std::map<int64_t, LandmarkCreationTime>& creations,
-                                       const MeasurementEvalOptions& options) {
+                                       const MeasurementEvalOptions& options,
+                                       const std::map<std::string, double>& camera_heading_rad) {
   if (reference.empty()) throw DataError("no ground-truth poses to score measurements against");
   Trajectory sorted = reference;
   sortByTime(&sorted);
@@ -112,9 +167,16 @@ MeasurementReport evaluateMeasurements(const Trajectory& reference,
       continue;
     }
     const Pose2 expected = at_creation->between(*now);
+    const double heading_error = wrapAngle(s.dtheta - expected.theta);
+    // The measuring camera's heading in the world against the creating one's.
+    double view_change = std::numeric_limits<double>::quiet_NaN();
+    const auto measuring = camera_heading_rad.find(s.camera);
+    const auto creating = camera_heading_rad.find(created->second.camera);
+    if (measuring != camera_heading_rad.end() && creating != camera_heading_rad.end())
+      view_change = std::abs(wrapAngle(expected.theta + measuring->second - creating->second));
     r.scored.push_back({i, expected.x, expected.y, expected.theta,
-                        std::hypot(s.dx - expected.x, s.dy - expected.y),
-                        std::abs(wrapAngle(s.dtheta - expected.theta))});
+                        std::hypot(s.dx - expected.x, s.dy - expected.y), std::abs(heading_error),
+                        heading_error, std::hypot(expected.x, expected.y), view_change});
   }
   r.landmarks = static_cast<int64_t>(measured.size());
   if (!samples.empty()) {
@@ -161,6 +223,16 @@ MeasurementReport evaluateMeasurements(const Trajectory& reference,
   }
   r.accepted = summarize(accepted);
   r.all = summarize(all);
+  r.by_distance = binsOf(options.distance_edges_m);
+  fillBins(
+      &r.by_distance, accepted, samples,
+      [](const ScoredMeasurement& sc) { return sc.creation_distance_m; }, options);
+  std::vector<double> view_edges_rad;
+  for (const double deg : options.view_change_edges_deg) view_edges_rad.push_back(deg * M_PI / 180);
+  r.by_view_change = binsOf(view_edges_rad);
+  fillBins(
+      &r.by_view_change, accepted, samples,
+      [](const ScoredMeasurement& sc) { return sc.view_change_rad; }, options);
   r.samples = std::move(samples);
   return r;
 }
@@ -170,7 +242,8 @@ void writeMeasurementCsv(const std::string& path, const MeasurementReport& r) {
   std::ofstream f(path);
   if (!f) throw DataError(path + ": cannot open for writing");
   f << "t,camera,landmark_id,verdict,proj_err_rms,num_points,slope,dx,dy,dtheta,"
-       "true_dx,true_dy,true_dtheta,xy_error_m,heading_error_rad\n";
+       "true_dx,true_dy,true_dtheta,xy_error_m,heading_error_rad,creation_distance_m,"
+       "view_change_rad\n";
   std::vector<const ScoredMeasurement*> by_sample(r.samples.size(), nullptr);
   for (const auto& sc : r.scored) by_sample[sc.index] = &sc;
   f.precision(10);
@@ -183,9 +256,11 @@ void writeMeasurementCsv(const std::string& path, const MeasurementReport& r) {
       << s.slope << "," << s.dx << "," << s.dy << "," << s.dtheta;
     if (const ScoredMeasurement* sc = by_sample[i]) {
       f << "," << sc->true_dx << "," << sc->true_dy << "," << sc->true_dtheta << ","
-        << sc->xy_error_m << "," << sc->heading_error_rad << "\n";
+        << sc->xy_error_m << "," << sc->heading_error_rad << "," << sc->creation_distance_m << ",";
+      if (std::isfinite(sc->view_change_rad)) f << sc->view_change_rad;
+      f << "\n";
     } else {
-      f << ",,,,,\n";
+      f << ",,,,,,,\n";
     }
   }
   if (!f) throw DataError(path + ": write failed");
@@ -229,6 +304,37 @@ void printMeasurementReport(std::ostream& os, const MeasurementReport& r) {
        << l.measurements << " " << l.accepted << ", " << fmt("%.1f", l.xy_m.median * 100) << " / "
        << fmt("%.1f", l.xy_m.max * 100) << "\n";
   }
+  const MeasurementEvalOptions& o = r.options;
+  auto bins = [&](const char* title, const std::vector<MeasurementErrorBin>& b, double scale,
+                  const char* unit) {
+    os << "\n  accepted measurements " << title << "\n";
+    char buf[200];
+    std::snprintf(buf, sizeof(buf), "    %-10s  %8s  %21s  %13s  gross errors (> %g m or %g deg)\n",
+                  unit, "count", "robust sigma xy (cm)", "heading (deg)", o.gross_xy_m,
+                  o.gross_heading_deg);
+    os << buf;
+    for (const auto& bin : b) {
+      const std::string name = std::isfinite(bin.high)
+                                   ? fmt("%g", bin.low * scale) + "-" + fmt("%g", bin.high * scale)
+                                   : ">" + fmt("%g", bin.low * scale);
+      std::snprintf(buf, sizeof(buf), "    %-10s  %8lld  %21s  %13s  %s\n", name.c_str(),
+                    static_cast<long long>(bin.count),
+                    fmt("%.1f", bin.robust_sigma_xy_m * 100).c_str(),
+                    fmt("%.2f", bin.robust_sigma_heading_rad * kRadToDeg).c_str(),
+                    fmt("%.1f%%", 100 * bin.gross_fraction).c_str());
+      os << buf;
+    }
+  };
+  bins("by distance from the creation pose", r.by_distance, 1.0, "m");
+  int64_t with_view = 0;
+  for (const auto& bin : r.by_view_change) with_view += bin.count;
+  if (with_view > 0 || r.accepted.xy_m.count == 0) {
+    bins("by change of viewing direction", r.by_view_change, kRadToDeg, "deg");
+  } else {
+    os << "\n  by change of viewing direction: no camera calibration in the input (the cameras'"
+          " headings on the robot)\n";
+  }
+
   os << "\n  Distribution of accuracy (vSLAM paper Table 1)\n";
   os << "  xy err (cm)  accepted  rejected  accepted/total   xy err (cm)  accepted  rejected  "
         "accepted/total\n";

@@ -15,6 +15,15 @@
 // Pure: the caller supplies each measurement's pre-filter verdict, so the
 // same report serves the front-end's thresholds, a back-end's verdicts read
 // from a log, or any other acceptance region.
+//
+// The accepted measurements' errors are also told apart by the two things
+// the back-end's noise model could depend on: the true distance from the
+// creation pose, and the change of viewing direction since the creation (the
+// measuring camera's heading against the creating camera's, from the
+// cameras' headings on the robot). Per bin, robust standard deviations
+// (1.4826 x the median absolute deviation: the spread of the good ones) and
+// the share of gross errors (the aliases and badly built landmarks), so the
+// back-end's measurement_sigma_* can be compared with what a log shows.
 
 #include <cstdint>
 #include <iosfwd>
@@ -54,6 +63,13 @@ struct MeasurementEvalOptions {
   // Upper edges of the xy-error bands of Table 1, centimetres; errors at or
   // above the last edge form the final "> last" row.
   std::vector<double> band_edges_cm = {10, 20, 30, 40, 50, 70, 100, 150, 200};
+  // Upper edges of the bins by distance from the creation pose (metres) and
+  // by change of viewing direction (degrees); the last bin is open.
+  std::vector<double> distance_edges_m = {0.5, 1.0, 1.5, 2.0, 3.0};
+  std::vector<double> view_change_edges_deg = {10, 20, 30, 45, 60, 90};
+  // A gross error: xy error or heading error beyond these.
+  double gross_xy_m = 0.3;
+  double gross_heading_deg = 5.0;
 };
 
 struct ScoredMeasurement {
@@ -61,6 +77,21 @@ struct ScoredMeasurement {
   double true_dx = 0, true_dy = 0, true_dtheta = 0;  // G(t_c)^-1 * G(t)
   double xy_error_m = 0;                             // sqrt(ex^2 + ey^2)
   double heading_error_rad = 0;                      // |wrapped|
+  double signed_heading_error_rad = 0;               // wrapped, measured - true
+  double creation_distance_m = 0;                    // sqrt(true_dx^2 + true_dy^2)
+  // |measuring camera's heading - creating camera's| in the world, truly;
+  // NaN when either camera's heading on the robot is unknown.
+  double view_change_rad = 0;
+};
+
+// Accepted measurements' errors in one bin of MeasurementEvalOptions'
+// distance_edges_m or view_change_edges_deg.
+struct MeasurementErrorBin {
+  double low = 0, high = 0;  // [low, high); high = inf for the last bin
+  int64_t count = 0;
+  double robust_sigma_xy_m = 0;  // of ex and ey together; NaN when count == 0
+  double robust_sigma_heading_rad = 0;
+  double gross_fraction = 0;  // beyond gross_xy_m or gross_heading_deg
 };
 
 struct ErrorSummary {
@@ -96,20 +127,30 @@ struct MeasurementReport {
   ErrorSummary accepted, all;
   std::vector<MeasurementBand> bands;                  // per band (Table 1, right half)
   std::vector<LandmarkMeasurementStats> per_landmark;  // ascending id
+  std::vector<MeasurementErrorBin> by_distance;        // accepted, by creation distance
+  std::vector<MeasurementErrorBin> by_view_change;     // accepted, by view change (known cameras)
   MeasurementEvalOptions options;
 
   int64_t acceptedCount() const;
   double acceptedFraction() const;  // of all samples; NaN when there are none
 };
 
-// Throws DataError when the reference is empty.
-MeasurementReport evaluateMeasurements(const Trajectory& reference,
-                                       std::vector<MeasurementSample> samples,
-                                       const std::map<int64_t, LandmarkCreationTime>& creations,
-                                       const MeasurementEvalOptions& options = {});
+// Throws DataError when the reference is empty. camera_heading_rad: each
+// camera's optical axis heading on the robot (radians from the robot's +x),
+// for the view changes; cameras not in it leave the view change unknown.
+MeasurementReport evaluateMeasurements(
+    const Trajectory& reference, std::vector<MeasurementSample> samples,
+    const std::map<int64_t, LandmarkCreationTime>& creations,
+    const MeasurementEvalOptions& options = {},
+    const std::map<std::string, double>& camera_heading_rad = {});
+
+// 1.4826 x the median absolute deviation from the median: a Gaussian's
+// standard deviation, unmoved by a minority of gross errors. NaN when empty.
+double robustSigma(std::vector<double> values);
 
 // One row per measurement (scored or not): time, camera, landmark, verdict,
-// statistics, measured and true relative pose, errors (empty when not scored).
+// statistics, measured and true relative pose, errors, creation distance and
+// view change (empty when not scored; the view change also when unknown).
 void writeMeasurementCsv(const std::string& path, const MeasurementReport& report);
 
 // Prints the summary and Table 1 (cumulative and per band).

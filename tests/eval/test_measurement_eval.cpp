@@ -1,11 +1,13 @@
 // vslam-eval --measurements on hand-made data with known answers: the truth
 // of a relative measurement G(t_c)^-1 G(t) with interpolated ground truth,
 // the error statistics of accepted and all measurements, Table 1's bands,
-// what is not scored, and the same report read from an LCM log.
+// what is not scored, the errors by creation distance and by change of
+// viewing direction, and the same report read from an LCM log.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <sstream>
+#include <vslam/camera_calibration_t.hpp>
 #include <vslam/ground_truth_pose_t.hpp>
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
@@ -137,6 +139,60 @@ TEST(MeasurementEval, GroundTruthGapIsNotBridged) {
   EXPECT_THROW(evaluateMeasurements(Trajectory{}, {}, kCreations), DataError);
 }
 
+TEST(MeasurementEval, RobustSigmaIgnoresAMinorityOfGrossErrors) {
+  // Median 3, absolute deviations {2, 1, 0, 1, 97}: their median 1.
+  EXPECT_NEAR(robustSigma({1, 2, 3, 4, 100}), 1.4826, 1e-12);
+  // Even count: the mean of the two middle values, for both medians.
+  EXPECT_NEAR(robustSigma({-1, 1}), 1.4826, 1e-12);
+  EXPECT_TRUE(std::isnan(robustSigma({})));
+}
+
+TEST(MeasurementEval, ErrorsAreBinnedByCreationDistanceAndViewChange) {
+  // Landmark 7 was made by the forward camera (heading 0 on the robot);
+  // measured by it at 0.2 and 0.4 m from the creation pose and by the
+  // backward camera (heading pi) at 1.2 m: a view change of 180 degrees.
+  std::vector<MeasurementSample> s = {
+      sample(4.0, 0.01, 0.0, 0.0), sample(6.0, 0.0, -0.01, 0.01), sample(14.0, 0.5, 0.0, 0.0),
+      sample(15.0, 0.0, 0.0, 0.0, MeasurementVerdict::kRejectedSlope)};
+  s[2].camera = "backward";
+  const std::map<std::string, double> headings = {{"forward", 0.0}, {"backward", M_PI}};
+  const MeasurementReport r = evaluateMeasurements(lineAlongY(), s, kCreations, {}, headings);
+  ASSERT_EQ(r.scored.size(), 4u);
+  EXPECT_NEAR(r.scored[0].creation_distance_m, 0.2, 1e-9);
+  EXPECT_NEAR(r.scored[0].view_change_rad, 0.0, 1e-9);
+  EXPECT_NEAR(r.scored[2].creation_distance_m, 1.2, 1e-9);
+  EXPECT_NEAR(r.scored[2].view_change_rad, M_PI, 1e-9);
+  EXPECT_NEAR(r.scored[1].signed_heading_error_rad, 0.01, 1e-9);
+
+  // Default edges 0.5, 1, 1.5, 2, 3 m: the two forward ones in the first
+  // bin, the backward one in the third; the rejected one in none.
+  ASSERT_EQ(r.by_distance.size(), 6u);
+  EXPECT_EQ(r.by_distance[0].count, 2);
+  EXPECT_EQ(r.by_distance[1].count, 0);
+  EXPECT_EQ(r.by_distance[2].count, 1);
+  EXPECT_TRUE(std::isinf(r.by_distance.back().high));
+  // ex, ey of the first bin: {0.01, 0, 0, -0.01}: median 0, deviations'
+  // median 0.005.
+  EXPECT_NEAR(r.by_distance[0].robust_sigma_xy_m, 1.4826 * 0.005, 1e-9);
+  EXPECT_NEAR(r.by_distance[0].robust_sigma_heading_rad, 1.4826 * 0.005, 1e-9);
+  EXPECT_DOUBLE_EQ(r.by_distance[0].gross_fraction, 0.0);
+  EXPECT_DOUBLE_EQ(r.by_distance[2].gross_fraction, 1.0);  // 0.5 m off
+  EXPECT_TRUE(std::isnan(r.by_distance[1].robust_sigma_xy_m));
+  // Default edges 10, 20, 30, 45, 60, 90 deg.
+  ASSERT_EQ(r.by_view_change.size(), 7u);
+  EXPECT_EQ(r.by_view_change.front().count, 2);
+  EXPECT_EQ(r.by_view_change.back().count, 1);
+
+  // Without the cameras' headings the view change is unknown: in no bin.
+  const MeasurementReport unknown = evaluateMeasurements(lineAlongY(), s, kCreations);
+  EXPECT_TRUE(std::isnan(unknown.scored[0].view_change_rad));
+  for (const auto& bin : unknown.by_view_change) EXPECT_EQ(bin.count, 0);
+  EXPECT_EQ(unknown.by_distance[0].count, 2);
+  std::ostringstream os;
+  printMeasurementReport(os, unknown);
+  EXPECT_NE(os.str().find("no camera calibration"), std::string::npos) << os.str();
+}
+
 TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   const auto dir = vslam::test::freshDir("measurement_eval");
   const auto path = dir / "run.lcmlog";
@@ -176,6 +232,13 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
     meas(7000000, 1.0, 9, 0.01, 0);   // NPoints < 10
     meas(8000000, 1.0, 30, 0.2, 0);   // Slope > 0.1
     meas(9000000, 1.0, 30, 0.2, 1);   // judged accepted elsewhere: kept
+    // A camera looking backward: its optical axis (camera z) turned -90
+    // degrees about the robot's y axis is the robot's -x.
+    vslam::camera_calibration_t c{};
+    c.camera = "backward";
+    c.robot_q_camera[0] = std::cos(-M_PI / 4);
+    c.robot_q_camera[2] = std::sin(-M_PI / 4);
+    write("CAM_BACKWARD_CALIBRATION", c, 1000000);
   }
   MeasurementLogOptions options;
   const MeasurementLog m = readMeasurementLog(path, options);
@@ -187,6 +250,8 @@ TEST(MeasurementEval, ReadsALogAndJudgesUnfilteredMeasurementsByThePrefilter) {
   EXPECT_EQ(m.samples[4].verdict, MeasurementVerdict::kAccepted);
   ASSERT_EQ(m.creations.count(7), 1u);
   EXPECT_DOUBLE_EQ(m.creations.at(7).t, 2.0);
+  ASSERT_EQ(m.camera_heading_rad.count("backward"), 1u);
+  EXPECT_NEAR(std::abs(m.camera_heading_rad.at("backward")), M_PI, 1e-9);
   const MeasurementReport r = evaluateMeasurements(m.reference, m.samples, m.creations);
   ASSERT_EQ(r.scored.size(), 5u);
   EXPECT_NEAR(r.accepted.xy_m.median, 0.02, 1e-6);
