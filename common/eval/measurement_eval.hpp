@@ -16,10 +16,10 @@
 // same report serves the front-end's thresholds, a back-end's verdicts read
 // from a log, or any other acceptance region.
 //
-// The accepted measurements' errors are also told apart by the two things
-// the back-end's noise model could depend on: the true distance from the
-// creation pose, and the change of viewing direction since the creation (the
-// measuring camera's heading against the creating camera's, from the
+// The accepted measurements' errors are also binned by the true distance
+// from the creation pose (the back-end's noise model grows with it) and by
+// the true change of viewing direction since the creation (the measuring
+// camera's heading in the world against the creating camera's, from the
 // cameras' headings on the robot). Per bin, robust standard deviations
 // (1.4826 x the median absolute deviation: the spread of the good ones) and
 // the share of gross errors (the aliases and badly built landmarks), so the
@@ -153,7 +153,8 @@ double robustSigma(std::vector<double> values);
 // view change (empty when not scored; the view change also when unknown).
 void writeMeasurementCsv(const std::string& path, const MeasurementReport& report);
 
-// Prints the summary and Table 1 (cumulative and per band).
+// Prints the summary, the bins by distance and by view change, and Table 1
+// (cumulative and per band).
 void printMeasurementReport(std::ostream& os, const MeasurementReport& report);
 
 }  // namespace vslam::eval
