@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """scripts/benchmark-homes judges a start in a saved map in the map's frame,
-and cuts LCM logs by channel and time (the restarts' inputs).
+cuts LCM logs by channel and time (the restarts' inputs), and counts the runs
+after a carry in both frames.
 
     tests/launch/test_benchmark_homes.py REPO_ROOT
 
@@ -64,6 +65,24 @@ def copy_events_failures(bh):
     return failures
 
 
+def runs_line_failures(bh):
+    """runs_line counts every run against the target in the first run's frame,
+    and the runs after a carry (run number 2 on) also in the map's own frame."""
+    home = {"id": "home-1"}
+    runs = [(home, 1, {"rmse_after_settle": 0.05, "rmse_after_settle_origin": 0.40}),
+            (home, 2, {"rmse_after_settle": 0.20, "rmse_after_settle_origin": 0.06}),
+            (home, 3, {"rmse_after_settle": 0.10, "rmse_after_settle_origin": 0.12}),
+            (home, 2, {"rmse_after_settle": 0.30, "rmse_after_settle_origin": None})]
+    line = bh.runs_line(runs)
+    want = ("2 of 4 (of the 3 after a carry: 1 in the first run's frame, "
+            "2 in the map's own frame from the true start pose)")
+    failures = [] if line.endswith(want) else [f"runs line {line!r}, wanted it to end {want!r}"]
+    single = bh.runs_line(runs[:1])
+    if not single.endswith("1 of 1"):
+        failures.append(f"without carries the line is {single!r}, not ending '1 of 1'")
+    return failures
+
+
 def main():
     bh = load_script(sys.argv[1])
     failures = []
@@ -108,10 +127,11 @@ def main():
         if bh.map_frame(sparse, ref_t, ref_p) is not None:
             failures.append("a map of 2 placed landmarks gave a frame")
     failures += copy_events_failures(bh)
+    failures += runs_line_failures(bh)
     for f in failures:
         print("FAIL:", f)
     if not failures:
-        print("ok: benchmark-homes judges starts in the map's frame and cuts logs")
+        print("ok: benchmark-homes judges starts in the map's frame, cuts logs and counts runs")
     return 1 if failures else 0
 
 
