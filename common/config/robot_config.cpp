@@ -1,5 +1,6 @@
 #include "config/robot_config.hpp"
 
+#include <cmath>
 #include <opencv2/core.hpp>
 #include <ostream>
 #include <set>
@@ -191,6 +192,10 @@ RobotConfig RobotConfig::load(const ConfigNode& node) {
 
 RobotConfig RobotConfig::loadFile(const std::filesystem::path& file) {
   return load(ConfigNode::loadFile(file));
+}
+
+double opticalAxisHeading(const Eigen::Matrix3d& robot_R_camera) {
+  return std::atan2(robot_R_camera(1, 2), robot_R_camera(0, 2));
 }
 
 const CameraConfig& RobotConfig::camera(const std::string& camera_name) const {

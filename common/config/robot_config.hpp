@@ -27,6 +27,10 @@ struct CameraIntrinsics {
 // sample) and validates them; ConfigError names the file and the field.
 CameraIntrinsics readOpenCvCalibration(const std::filesystem::path& file);
 
+// The heading of a camera's optical axis (OpenCV's camera z) in the robot
+// frame: radians about the robot's z from its x (forward).
+double opticalAxisHeading(const Eigen::Matrix3d& robot_R_camera);
+
 struct CameraConfig {
   std::string name;  // e.g. "forward"
   std::filesystem::path calibration_file;

@@ -8,6 +8,7 @@
 #include <vslam/landmark_update_t.hpp>
 #include <vslam/visual_measurement_t.hpp>
 
+#include "config/robot_config.hpp"
 #include "eval/errors.hpp"
 #include "eval/log_events.hpp"
 #include "util/log.hpp"
@@ -69,10 +70,11 @@ MeasurementLog readMeasurementLog(const std::filesystem::path& log,
         const auto c = decodeEvent<vslam::camera_calibration_t>(ref, "vslam.camera_calibration_t");
         const Eigen::Quaterniond q(c.robot_q_camera[0], c.robot_q_camera[1], c.robot_q_camera[2],
                                    c.robot_q_camera[3]);
-        // The optical axis (OpenCV's camera z) in the robot frame.
-        const Eigen::Vector3d axis = q.normalized().toRotationMatrix().col(2);
-        if (std::isfinite(axis.x()) && std::isfinite(axis.y()) && axis.head<2>().norm() > 1e-6)
-          out.camera_heading_rad[c.camera] = std::atan2(axis.y(), axis.x());
+        const Eigen::Matrix3d robot_R_camera = q.normalized().toRotationMatrix();
+        // A camera looking straight up or down has no heading.
+        if (robot_R_camera.allFinite() &&
+            std::hypot(robot_R_camera(0, 2), robot_R_camera(1, 2)) > 1e-6)
+          out.camera_heading_rad[c.camera] = config::opticalAxisHeading(robot_R_camera);
       } catch (const DataError& err) {
         log::warn(err.what(), ": skipped");
       }

@@ -66,10 +66,8 @@ const config::ParamTable<DatabaseParams>& databaseParamTable() {
 }
 
 void setCameraHeadings(const config::RobotConfig& robot, DatabaseParams& p) {
-  for (const auto& c : robot.cameras) {
-    const Eigen::Vector3d axis = c.robot_T_camera.linear().col(2);
-    p.camera_yaw[c.name] = std::atan2(axis.y(), axis.x());
-  }
+  for (const auto& c : robot.cameras)
+    p.camera_yaw[c.name] = config::opticalAxisHeading(c.robot_T_camera.linear());
 }
 
 DatabaseParams loadDatabaseParams(const config::ConfigNode& node,
