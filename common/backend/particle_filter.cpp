@@ -241,6 +241,7 @@ void ParticleFilter::predict(const Pose2& step) {
   const uint64_t k = step_++;
   const uint64_t seed = params_.seed;
   const MotionNoise noise = params_.motion;
+  const MotionNoise::StepNoise step_noise(noise, step);
   since_update_.apply(step, noise.stepCovariance(step));
   odometry_ = odometry_.compose(step);
   if (kidnapped_) held_ = held_.compose(step);
@@ -248,7 +249,7 @@ void ParticleFilter::predict(const Pose2& step) {
     RandomStream rng(seed, k, i, kMotion);
     const double nt = rng.normal();
     const double nr = rng.normal();
-    particles_[i].pose = particles_[i].pose.compose(noise.perturb(step, nt, nr));
+    particles_[i].pose = particles_[i].pose.compose(step_noise.perturb(nt, nr));
   });
   if (before_kidnap_.empty()) return;
   before_kidnap_since_update_.apply(step, noise.stepCovariance(step));
@@ -256,7 +257,7 @@ void ParticleFilter::predict(const Pose2& step) {
     RandomStream rng(seed, k, i, kMotionBefore);
     const double nt = rng.normal();
     const double nr = rng.normal();
-    before_kidnap_[i].pose = before_kidnap_[i].pose.compose(noise.perturb(step, nt, nr));
+    before_kidnap_[i].pose = before_kidnap_[i].pose.compose(step_noise.perturb(nt, nr));
   });
 }
 

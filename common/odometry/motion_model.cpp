@@ -23,12 +23,17 @@ Eigen::Matrix3d MotionNoise::stepCovariance(const Pose2& step) const {
                               sigma_rotation * sigma_rotation * (d + std::abs(step.theta)));
 }
 
-Pose2 MotionNoise::perturb(const Pose2& step, double n_translation, double n_rotation) const {
+MotionNoise::StepNoise::StepNoise(const MotionNoise& noise, const Pose2& step) : step_(step) {
   const double d = std::hypot(step.x, step.y);
-  const double e_t = sigma_translation * std::sqrt(d) * n_translation;
-  const double e_r = sigma_rotation * std::sqrt(d + std::abs(step.theta)) * n_rotation;
+  sigma_t_ = noise.sigma_translation * std::sqrt(d);
+  sigma_r_ = noise.sigma_rotation * std::sqrt(d + std::abs(step.theta));
   const double heading = d > 1e-9 ? std::atan2(step.y, step.x) : 0.0;
-  return {step.x + std::cos(heading) * e_t, step.y + std::sin(heading) * e_t, step.theta + e_r};
+  cos_heading_ = std::cos(heading);
+  sin_heading_ = std::sin(heading);
+}
+
+Pose2 MotionNoise::perturb(const Pose2& step, double n_translation, double n_rotation) const {
+  return StepNoise(*this, step).perturb(n_translation, n_rotation);
 }
 
 void PoseWithCovariance::apply(const Pose2& step, const Eigen::Matrix3d& step_covariance) {

@@ -43,6 +43,23 @@ struct MotionNoise {
   // heading. (Sampling through a matrix square root of the rank-deficient
   // covariance would turn rounding into NaNs.)
   Pose2 perturb(const Pose2& step, double n_translation, double n_rotation) const;
+
+  // perturb() for many draws of one step (the particle filter's motion
+  // step): what does not depend on the draws is computed once.
+  class StepNoise {
+   public:
+    StepNoise(const MotionNoise& noise, const Pose2& step);
+    Pose2 perturb(double n_translation, double n_rotation) const {
+      const double e_t = sigma_t_ * n_translation;
+      return {step_.x + cos_heading_ * e_t, step_.y + sin_heading_ * e_t,
+              step_.theta + sigma_r_ * n_rotation};
+    }
+
+   private:
+    Pose2 step_;
+    double sigma_t_, sigma_r_;          // the step's translation and rotation sigmas
+    double cos_heading_, sin_heading_;  // the direction of travel
+  };
 };
 
 // Dead-reckoned pose with first-order covariance propagation:
