@@ -1,5 +1,8 @@
 #include "backend/landmark_map.hpp"
 
+#include <tbb/scalable_allocator.h>
+
+#include <new>
 #include <utility>
 
 namespace vslam::backend {
@@ -18,10 +21,20 @@ namespace {
 
 using Node = LandmarkMap::Node;
 
-struct Interior : Node {
+// Nodes come from TBB's scalable allocator: every update of a landmark
+// copies a path of nodes per particle, on several threads at once, and the
+// system allocator's locks and bins were a sixth of the filter's time.
+struct PooledNode : Node {
+  static void* operator new(size_t size) {
+    if (void* p = scalable_malloc(size)) return p;
+    throw std::bad_alloc();
+  }
+  static void operator delete(void* p) { scalable_free(p); }
+};
+struct Interior : PooledNode {
   Node* children[LandmarkMap::kBranch] = {};
 };
-struct Leaf : Node {
+struct Leaf : PooledNode {
   LandmarkEstimate entries[LandmarkMap::kLeafSize];
 };
 

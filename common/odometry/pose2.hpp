@@ -24,8 +24,13 @@ struct Pose2 {
     const double c = std::cos(theta), s = std::sin(theta);
     return {-c * x - s * y, s * x - c * y, wrapAngle(-theta)};
   }
-  // this^-1 * other: `other` expressed in this pose's frame.
-  Pose2 between(const Pose2& other) const { return inverse().compose(other); }
+  // this^-1 * other: `other` expressed in this pose's frame (one sine and
+  // cosine, not inverse().compose()'s two: the particle filter's inner loop).
+  Pose2 between(const Pose2& other) const {
+    const double c = std::cos(theta), s = std::sin(theta);
+    const double dx = other.x - x, dy = other.y - y;
+    return {c * dx + s * dy, -s * dx + c * dy, wrapAngle(other.theta - theta)};
+  }
   bool isFinite() const { return std::isfinite(x) && std::isfinite(y) && std::isfinite(theta); }
   Eigen::Vector3d vector() const { return {x, y, theta}; }
 };
