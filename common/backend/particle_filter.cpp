@@ -183,6 +183,8 @@ void FilterParams::validate() const {
   require(std::isfinite(kidnap.retest_margin_s), "kidnap retest_margin_s must be finite");
   require(kidnap.view_jump_window_s >= 0 && std::isfinite(kidnap.view_jump_window_s),
           "kidnap view_jump_window_s must be finite and >= 0");
+  require(kidnap.unchecked_jump_window_s >= 0 && std::isfinite(kidnap.unchecked_jump_window_s),
+          "kidnap unchecked_jump_window_s must be finite and >= 0");
   require(outlier.probability >= 0 && outlier.probability < 1,
           "outlier probability must be in [0, 1)");
   require(outlier.area_m2 > 0 && outlier.gate_mahalanobis_sq > 0,
@@ -562,6 +564,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
     if (agreement < kp.detect_agreement) {
       if (!suspect) noteInconsistent(obs, slot);
     } else if (agreement >= kp.recover_agreement) {
+      noteConsistentAfterJump(slot);
       if (endsLowRun(slot, obs.utime)) endLowRun();
     } else {
       dropFromLowRun(slot);
@@ -595,7 +598,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
           before_kidnap_agreeing_ = 0;
         }
         rep->kidnap_detected = true;
-        robot_was_moved_ = recentViewJump(obs.utime);
+        robot_was_moved_ = unresolvedViewJump(obs.utime);
         moved_since_utime_ =
             robot_was_moved_ ? jumps_since_utime_ : std::numeric_limits<int64_t>::max();
         view_jump_utime_ = jumps_since_utime_ =
@@ -779,6 +782,7 @@ void ParticleFilter::noteViewJump(int64_t t) {
   // none could relocalize the carried robot (generated home 1092).
   if (!withinViewJumpWindow(jumps_since_utime_, t)) jumps_since_utime_ = t;
   view_jump_utime_ = std::max(view_jump_utime_, t);
+  jump_checked_ = false;
   // What was inconsistent before the jump is no evidence of the move the
   // jump shows: the robot was elsewhere then. If it agrees with what comes
   // after, the disagreement began before the jump, a look-alike's or
@@ -827,8 +831,18 @@ bool ParticleFilter::recentlyRelocalizedAfterAMove(int64_t t) const {
   return withinViewJumpWindow(moved_relocalized_utime_, t);
 }
 
+bool ParticleFilter::unresolvedViewJump(int64_t t) const {
+  return recentViewJump(t) ||
+         (!jump_checked_ &&
+          withinWindow(view_jump_utime_, t, params_.kidnap.unchecked_jump_window_s));
+}
+
+void ParticleFilter::noteConsistentAfterJump(uint32_t slot) {
+  if (placed_utime_[slot] < jumps_since_utime_) jump_checked_ = true;
+}
+
 bool ParticleFilter::endsLowRun(uint32_t slot, int64_t t) const {
-  return !(recentViewJump(t) && placed_utime_[slot] >= jumps_since_utime_);
+  return !(unresolvedViewJump(t) && placed_utime_[slot] >= jumps_since_utime_);
 }
 
 double ParticleFilter::noteUnused(const Observation& obs) {
@@ -844,6 +858,7 @@ double ParticleFilter::noteUnused(const Observation& obs) {
     noteInconsistent(obs, static_cast<uint32_t>(slot));
   if (!kidnapped_ && agreement >= params_.kidnap.recover_agreement) {
     record(static_cast<uint32_t>(slot)).consistent += 1;
+    noteConsistentAfterJump(static_cast<uint32_t>(slot));
     if (endsLowRun(static_cast<uint32_t>(slot), obs.utime)) endLowRun();
   }
   return agreement;

@@ -173,6 +173,14 @@ struct KidnapParams {
   // kidnapping declared within the window, or during which a view jumps, is
   // known to be real (robotWasMoved). 0: view jumps are ignored.
   double view_jump_window_s = 0.0;
+  // A robot carried into a part of the home it has not mapped sees only
+  // landmarks it makes there until it comes back to mapped places (generated
+  // home 1190: 26 s). While no landmark placed before a view jump has agreed
+  // with the particles since it, the landmarks placed since go on not ending
+  // runs of inconsistent measurements, and a kidnapping declared is known to
+  // be real, for up to this long after the jump (at least
+  // view_jump_window_s). 0: view_jump_window_s alone.
+  double unchecked_jump_window_s = 0.0;
   // Right after a view jump the robot has most likely been moved, and the
   // sooner the kidnapping is declared the less time the estimate spends at
   // the old place. For moved_evidence_s after the latest jump (0: off),
@@ -471,12 +479,15 @@ class ParticleFilter {
   // (it ends after that draw).
   bool updateMode(uint32_t slot, const Observation& obs, double agreement, bool suspect,
                   UpdateReport* rep, bool* confirmed_by_cluster);
+  // A consistent measurement of `slot`: if placed before the latest series
+  // of view jumps, the jump is checked (unresolvedViewJump).
+  void noteConsistentAfterJump(uint32_t slot);
   // A consistent measurement ends the run of inconsistent ones: every
   // landmark in it was seen somewhere it is not.
   void endLowRun();
   // Whether a consistent measurement of `slot` at t may end the run: not if
   // the landmark was placed since the first of a series of view jumps whose
-  // latest is less than view_jump_window_s before t.
+  // latest is unresolved at t (unresolvedViewJump).
   bool endsLowRun(uint32_t slot, int64_t t) const;
   // since (min: never) is no more than view_jump_window_s (0: off) before t.
   bool withinViewJumpWindow(int64_t since, int64_t t) const;
@@ -484,6 +495,9 @@ class ParticleFilter {
   static bool withinWindow(int64_t since, int64_t t, double window_s);
   // A view jump noted no more than view_jump_window_s before t.
   bool recentViewJump(int64_t t) const;
+  // recentViewJump, or no more than unchecked_jump_window_s before t with
+  // no landmark placed before it consistent since.
+  bool unresolvedViewJump(int64_t t) const;
   // t is no more than moved_evidence_s after the latest view jump.
   bool justAfterViewJump(int64_t t) const;
   // An inconsistent measurement of a landmark that is not a look-alike: in
@@ -532,6 +546,9 @@ class ParticleFilter {
   // The first of the latest series of view jumps, each within
   // view_jump_window_s of the first.
   int64_t jumps_since_utime_ = std::numeric_limits<int64_t>::min();
+  // A landmark placed before the latest series of view jumps was
+  // consistent after it (KidnapParams::unchecked_jump_window_s).
+  bool jump_checked_ = true;
   bool robot_was_moved_ = false;  // robotWasMoved()
   // While kidnapped with robot_was_moved_ from a view jump: the first jump
   // of its series, when the robot was moved. Landmarks placed since were

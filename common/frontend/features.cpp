@@ -1,7 +1,9 @@
 #include "frontend/features.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -13,6 +15,40 @@ void Features::clear() {
   descriptors.release();
   normalized.clear();
   gain = 1.0;
+  thumbnail.release();
+}
+
+double thumbnailSimilarity(const cv::Mat& a, const cv::Mat& b, int max_shift_px,
+                           double flat_level) {
+  if (a.empty() || a.size() != b.size() || a.type() != CV_32F || b.type() != CV_32F)
+    return std::numeric_limits<double>::quiet_NaN();
+  const int width = a.cols;
+  const int max_shift = std::clamp(max_shift_px, 0, width / 2);
+  const double floor_var = flat_level * flat_level;
+  double best = std::numeric_limits<double>::quiet_NaN();
+  // b's column c + shift shows what a's column c showed.
+  for (int shift = -max_shift; shift <= max_shift; ++shift) {
+    const int a0 = std::max(0, -shift), a1 = std::min(width, width - shift);
+    double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+    for (int r = 0; r < a.rows; ++r) {
+      const float* pa = a.ptr<float>(r);
+      const float* pb = b.ptr<float>(r) + shift;
+      for (int c = a0; c < a1; ++c) {
+        sa += pa[c];
+        sb += pb[c];
+        saa += static_cast<double>(pa[c]) * pa[c];
+        sbb += static_cast<double>(pb[c]) * pb[c];
+        sab += static_cast<double>(pa[c]) * pb[c];
+      }
+    }
+    const double n = static_cast<double>(a.rows) * (a1 - a0);
+    const double var_a = std::max(0.0, saa / n - (sa / n) * (sa / n));
+    const double var_b = std::max(0.0, sbb / n - (sb / n) * (sb / n));
+    if (var_a < floor_var || var_b < floor_var) continue;
+    const double ncc = (sab / n - (sa / n) * (sb / n)) / std::sqrt(var_a * var_b);
+    if (!(ncc <= best)) best = ncc;
+  }
+  return best;
 }
 
 FeatureExtractor::FeatureExtractor(const config::CameraConfig& camera, const SiftParams& sift)
@@ -89,6 +125,11 @@ void FeatureExtractor::extract(const cv::Mat& gray, Features* out) {
       k.size *= 0.5f * (sx + sy);
     }
   }
+  cv::resize(
+      gray, thumbnail_8u_,
+      cv::Size(std::max(1, gray.cols / kThumbnailScale), std::max(1, gray.rows / kThumbnailScale)),
+      0, 0, cv::INTER_AREA);
+  thumbnail_8u_.convertTo(out->thumbnail, CV_32F);
   pixels_.resize(out->keypoints.size());
   for (size_t i = 0; i < pixels_.size(); ++i) pixels_[i] = out->keypoints[i].pt;
   undistort(pixels_, &out->normalized);

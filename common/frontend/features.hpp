@@ -19,10 +19,25 @@ struct Features {
   // frame) of each keypoint, same order.
   std::vector<Eigen::Vector2d> normalized;
   double gain = 1.0;  // the digital gain applied to the image before SIFT (1: none)
+  // The image reduced kThumbnailScale times (CV_32F, each pixel the mean of
+  // its block): the front-end's continuity test compares consecutive frames
+  // by it (FrontendParams::view_jump_min_thumbnail_similarity).
+  cv::Mat thumbnail;
 
   size_t size() const { return keypoints.size(); }
   void clear();
 };
+
+inline constexpr int kThumbnailScale = 10;  // 320 x 240 -> 32 x 24
+
+// How alike two thumbnails (Features::thumbnail) of views a small turn apart
+// are: the highest normalized cross-correlation of their overlap over
+// horizontal shifts of up to max_shift_px thumbnail pixels (the overlap at
+// least half the width) whose overlap has a standard deviation of at least
+// flat_level in both images. In [-1, 1]; NaN where no shift has (a plain
+// wall: its correlation is the noise's, near 0 against anything) or the
+// sizes differ.
+double thumbnailSimilarity(const cv::Mat& a, const cv::Mat& b, int max_shift_px, double flat_level);
 
 // OpenCV's SIFT parameters (cv::SIFT::create), with its defaults, and the
 // digital gain applied to dim frames before it.
@@ -79,8 +94,9 @@ class FeatureExtractor {
   std::vector<double> distortion_;
   SiftParams params_;
   cv::Ptr<cv::SIFT> sift_;
-  cv::Mat gained_;  // the gained frame, reused
-  cv::Mat halved_;  // the frame at half size (double_first_octave false), reused
+  cv::Mat gained_;        // the gained frame, reused
+  cv::Mat halved_;        // the frame at half size (double_first_octave false), reused
+  cv::Mat thumbnail_8u_;  // Features::thumbnail before its conversion, reused
   // Reused across calls.
   mutable std::vector<cv::Point2f> pixels_;
   mutable std::vector<cv::Point2d> distorted_, undistorted_;

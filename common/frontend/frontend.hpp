@@ -12,6 +12,7 @@
 
 #include <array>
 #include <deque>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -56,8 +57,16 @@ struct FrontendParams {
   // The view jumped (the robot was carried, or kidnapped): a frame finds
   // again fewer than this share of the previous frame's strongest features,
   // and fewer than this share of its largest-scale ones, although odometry
-  // says the robot barely moved between them. 0: not tested.
+  // says the robot barely moved between them; tested only where the
+  // thumbnails cannot tell (below). 0: not tested.
   double view_jump_max_matched_share = 0.0;
+  // The view jumped where the two frames' thumbnails are less alike than
+  // this (thumbnailSimilarity), odometry as above. Where the thumbnails can
+  // tell (contrast in both) they decide, and the features are not tested:
+  // they need no features (a dark room), a repeated pattern's features found
+  // again across a carry do not hide it, nor does a fast turn's blur make
+  // one. 0: not tested.
+  double view_jump_min_thumbnail_similarity = 0.0;
   SiftParams sift;
   CreationParams creation;
   RefinementParams refinement;
@@ -101,12 +110,15 @@ struct FrameResult {
   };
   std::optional<Refined> refined;
   std::optional<std::string> creation_failure;  // why the window's three views made no landmark
-  // This frame against the previous one (view_jump_max_matched_share > 0):
-  // the share of the previous frame's strongest features found again, or of
-  // its largest-scale ones if more of those were, -1 if not tested (a gap,
-  // too few features, the robot moved too far), and whether the view
-  // jumped.
+  // This frame against the previous one (view_jump_max_matched_share or
+  // view_jump_min_thumbnail_similarity > 0): the share of the previous
+  // frame's strongest features found again, or of its largest-scale ones if
+  // more of those were, -1 if not tested (a gap, too few features, the robot
+  // moved too far); the two frames' thumbnails' similarity
+  // (thumbnailSimilarity), NaN if not tested (a gap, two plain views, the
+  // robot moved too far); and whether the view jumped by either.
   double matched_share = -1;
+  double thumbnail_similarity = std::numeric_limits<double>::quiet_NaN();
   bool view_jumped = false;
   Utime previous_utime = 0;
   // Wall time of the frame's parts (creation: refinement and the window of
@@ -182,6 +194,8 @@ class Frontend {
     Pose2 odometry;
     cv::Mat strongest;  // descriptors of its kContinuityFeatures strongest features
     cv::Mat largest;    // and of its kContinuityFeatures largest-scale ones
+    cv::Mat thumbnail;  // Features::thumbnail
+    size_t num_features = 0;
   };
   std::optional<PreviousFrame> previous_;
   RatioMatcher continuity_matcher_;

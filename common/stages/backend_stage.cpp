@@ -128,6 +128,10 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "pose the robot was thought to be at by construction), and a kidnapping declared is "
            "known to be real: relocalized with every measurement, not cancelled by landmarks "
            "placed since it began; 0: view jumps are ignored")
+      .add("unchecked_jump_window_s", &K::unchecked_jump_window_s, InRange{0, 600}, "s",
+           "while no landmark placed before a view jump has agreed with the particles since it "
+           "(the robot carried into a part of the home it has not mapped), the jump's window "
+           "lasts up to this long; 0: view_jump_window_s alone")
       .add("moved_evidence_s", &K::moved_evidence_s, InRange{0, 600}, "s",
            "for this long after a front-end's view jumped, inconsistent measurements the "
            "back-end thins (`landmark_min_interval_s`) still count toward a kidnapping, and a "

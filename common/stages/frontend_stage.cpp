@@ -83,6 +83,15 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             "moved; published on the view-jump channel for the back-end's kidnap test; 0: not "
             "tested")
         .add(
+            "view_jump_min_thumbnail_similarity",
+            [](auto& p) -> auto& { return p.frontend.view_jump_min_thumbnail_similarity; },
+            InRange{0, 1}, "",
+            "the view jumped (carried, kidnapped) when the frame reduced ten times correlates "
+            "less than this with the previous one so reduced (over the shifts the odometry's "
+            "turn allows), odometry as above; where both have contrast this decides, needing no "
+            "features (a dark room) and not fooled by a repeated pattern's, else "
+            "view_jump_max_matched_share does; 0: not tested")
+        .add(
             "max_measurements_per_frame",
             [](auto& p) -> auto& { return p.frontend.max_measurements_per_frame; }, InRange{1, 100},
             "", "recognized landmarks measured per frame, most matches first")
@@ -444,9 +453,16 @@ void FrontendStage::process(vslam::image_t& msg) {
     jump.camera = camera().name;
     jump.matched_share = result.matched_share;
     jump.max_matched_share = params_.frontend.view_jump_max_matched_share;
+    jump.thumbnail_similarity = result.thumbnail_similarity;
+    jump.min_thumbnail_similarity = params_.frontend.view_jump_min_thumbnail_similarity;
     ctx_->bus.publish(params_.view_jump_channel, jump);
-    log::info("view jumped at ", msg.utime, ": ", result.matched_share * 100,
-              " % of the previous frame's strongest features found again");
+    log::info("view jumped at ", msg.utime,
+              ": share of the previous frame's strongest features "
+              "found again ",
+              result.matched_share,
+              " (-1: too few to tell), thumbnails' "
+              "similarity ",
+              result.thumbnail_similarity);
   }
   for (const auto& [landmark_id, pm] : result.measurements) {
     vslam::visual_measurement_t out{};

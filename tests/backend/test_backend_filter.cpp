@@ -1422,6 +1422,52 @@ TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceDoNotHideTheKidnapping) {
   EXPECT_EQ(kidnaps, 0);
 }
 
+TEST(ParticleFilter, AJumpIntoAnUnmappedPlaceStaysOpenUntilAnOldLandmarkChecksIt) {
+  // As above, but the robot is carried at 1 s into a part of the home it has
+  // not mapped: for 24 s it sees only landmark 4, made there, and landmarks
+  // 1 and 2 show where it is from 25 s on, beyond view_jump_window_s (20 s).
+  // No landmark placed before the jump has agreed with the particles since
+  // it, so landmark 4 still ends no run (unchecked_jump_window_s 60 s): the
+  // kidnapping is declared and relocalized. With the window alone
+  // (unchecked_jump_window_s 0) landmark 4 ends every run: none. And where
+  // landmark 3, placed before the jump, agreed at 5 s (the jump was a
+  // camera's glitch, the robot where it was), the window closes at 21 s as
+  // before.
+  const auto at = observationAt;
+  auto run = [&](double unchecked_jump_window_s, bool checked, bool* recovered) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = 20.0;
+    p.kidnap.unchecked_jump_window_s = unchecked_jump_window_s;
+    auto pf = filterWithThreeLandmarks(p, {0, -1, 0});  // landmark 3 at (0, 1, 0)
+    pf->noteViewJump(at(0, {}, 1.0).utime);
+    EXPECT_EQ(pf->update(at(4, {0.5, 0, 0}, 1.2)).kind, UpdateKind::kInitialized);
+    for (double s = 2.0; s < 25.0; s += 1.0) {
+      pf->update(at(4, {0.5, 0, 0}, s));
+      if (checked && s == 5.0) pf->update(at(3, {0, -1, 0}, s + 0.5));
+    }
+    int kidnaps = 0;
+    *recovered = false;
+    double s = 25.0;
+    for (int k = 0; k < 12 && !*recovered; ++k, s += 0.5) {
+      const UpdateReport r = pf->update(seenFromThreeMetresBack(k, s));
+      kidnaps += r.kidnap_detected;
+      *recovered = *recovered || r.recovered;
+      if (!pf->kidnapped()) pf->update(at(4, {0.5, 0, 0}, s + 0.25));
+    }
+    return std::make_pair(kidnaps, std::move(pf));
+  };
+  bool recovered = false;
+  const auto [kidnaps, pf] = run(60.0, false, &recovered);
+  EXPECT_EQ(kidnaps, 1);
+  EXPECT_TRUE(recovered);
+  EXPECT_TRUE(pf->robotWasMoved());
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.1);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+
+  EXPECT_EQ(run(0.0, false, &recovered).first, 0) << "the window alone";
+  EXPECT_EQ(run(60.0, true, &recovered).first, 0) << "an old landmark checked the jump";
+}
+
 TEST(ParticleFilter, InconsistentMeasurementsFromBeforeAViewJumpAreNoEvidenceOfTheMove) {
   // Landmarks 1-3 are mapped from the start pose, where the robot stays.
   // Landmarks 1 and 2 are look-alikes that put it 3 m back: measured at 1.0

@@ -118,10 +118,16 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
        "dim rooms of generated homes (docs/frontend.md); the library keeps the paper's frames"},
       {"frontend.view_jump_max_matched_share",
        "carried robots (docs/frontend.md, \"View jumps\"); the library's frames are not tested"},
+      {"frontend.view_jump_min_thumbnail_similarity",
+       "carries from plain walls, dark rooms and tiles (docs/frontend.md, \"View jumps\"); the "
+       "library's frames are not tested"},
       {"frontend.refine_distance_m",
        "tuning homes 21-52 (docs/benchmark-homes.md); the library keeps the paper's three views"},
       {"backend.kidnap.view_jump_window_s",
        "carries of the tuning homes (docs/backend.md, \"View jumps\"); the library ignores them"},
+      {"backend.kidnap.unchecked_jump_window_s",
+       "a carry into a part of the home not mapped yet (docs/backend.md, \"View jumps\"); off in "
+       "the library as view jumps are"},
       {"backend.kidnap.moved_evidence_s",
        "carries of the tuning homes 21-52 (docs/backend.md, \"View jumps\"); off in the library "
        "as view jumps are"},

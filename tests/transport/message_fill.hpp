@@ -370,6 +370,8 @@ inline void fill(vslam::view_jump_t& m, int s) {
   m.camera = sv("forward", s);
   m.matched_share = 0.01 * (s % 5);
   m.max_matched_share = 0.05;
+  m.thumbnail_similarity = 0.1 * (s % 7);
+  m.min_thumbnail_similarity = 0.5;
 }
 
 template <class T>

@@ -174,6 +174,7 @@ void expectKeyFields(const vslam::view_jump_t& a, const vslam::view_jump_t& b) {
   EXPECT_EQ(a.previous_utime, b.previous_utime);
   EXPECT_EQ(a.camera, b.camera);
   EXPECT_EQ(a.matched_share, b.matched_share);
+  EXPECT_EQ(a.thumbnail_similarity, b.thumbnail_similarity);
 }
 
 // ---- typed tests over every type -------------------------------------------------
