@@ -32,13 +32,14 @@ double thumbnailSimilarity(const cv::Mat& a, const cv::Mat& b, int max_shift_px,
     double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
     for (int r = 0; r < a.rows; ++r) {
       const float* pa = a.ptr<float>(r);
-      const float* pb = b.ptr<float>(r) + shift;
+      const float* pb = b.ptr<float>(r);
       for (int c = a0; c < a1; ++c) {
-        sa += pa[c];
-        sb += pb[c];
-        saa += static_cast<double>(pa[c]) * pa[c];
-        sbb += static_cast<double>(pb[c]) * pb[c];
-        sab += static_cast<double>(pa[c]) * pb[c];
+        const double va = pa[c], vb = pb[c + shift];
+        sa += va;
+        sb += vb;
+        saa += va * va;
+        sbb += vb * vb;
+        sab += va * vb;
       }
     }
     const double n = static_cast<double>(a.rows) * (a1 - a0);
