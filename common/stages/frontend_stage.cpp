@@ -456,13 +456,9 @@ void FrontendStage::process(vslam::image_t& msg) {
     jump.thumbnail_similarity = result.thumbnail_similarity;
     jump.min_thumbnail_similarity = params_.frontend.view_jump_min_thumbnail_similarity;
     ctx_->bus.publish(params_.view_jump_channel, jump);
-    log::info("view jumped at ", msg.utime,
-              ": share of the previous frame's strongest features "
-              "found again ",
-              result.matched_share,
-              " (-1: too few to tell), thumbnails' "
-              "similarity ",
-              result.thumbnail_similarity);
+    log::info("view jumped at ", msg.utime, ": thumbnails' similarity ",
+              result.thumbnail_similarity, ", share of features found again ", result.matched_share,
+              " (nan, -1: not tested)");
   }
   for (const auto& [landmark_id, pm] : result.measurements) {
     vslam::visual_measurement_t out{};
