@@ -195,7 +195,8 @@ void Frontend::testContinuity(Utime t, const View& view, bool have_odometry, Fra
     if (near) {
       result->previous_utime = previous_->utime;
       if (params_.view_jump_min_thumbnail_similarity > 0 &&
-          std::max(previous_->num_features, f.size()) >= kThumbnailMinFeatures) {
+          std::max(static_cast<size_t>(previous_->strongest.rows), f.size()) >=
+              kThumbnailMinFeatures) {
         // Thumbnail pixels the turn moves the view by, and a margin for the
         // travel's parallax.
         const int max_shift = static_cast<int>(
@@ -224,7 +225,6 @@ void Frontend::testContinuity(Utime t, const View& view, bool have_odometry, Fra
   p.have_odometry = have_odometry;
   p.odometry = view.odometry;
   p.thumbnail = f.thumbnail;
-  p.num_features = f.size();
   p.strongest = bestDescriptors(
       f, [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
   p.largest = bestDescriptors(

@@ -195,7 +195,6 @@ class Frontend {
     cv::Mat strongest;  // descriptors of its kContinuityFeatures strongest features
     cv::Mat largest;    // and of its kContinuityFeatures largest-scale ones
     cv::Mat thumbnail;  // Features::thumbnail
-    size_t num_features = 0;
   };
   std::optional<PreviousFrame> previous_;
   RatioMatcher continuity_matcher_;
