@@ -482,9 +482,9 @@ class ParticleFilter {
   // A consistent measurement of `slot`: if placed before the latest series
   // of view jumps, the jump is checked (unresolvedViewJump).
   void noteConsistentAfterJump(uint32_t slot);
-  // A consistent measurement ends the run of inconsistent ones: every
-  // landmark in it was seen somewhere it is not.
-  void endLowRun();
+  // A consistent measurement (at time t) ends the run of inconsistent ones:
+  // every landmark in it was seen somewhere it is not.
+  void endLowRun(int64_t t);
   // Whether a consistent measurement of `slot` at t may end the run: not if
   // the landmark was placed since the first of a series of view jumps whose
   // latest is unresolved at t (unresolvedViewJump).

@@ -996,6 +996,52 @@ TEST(ParticleFilter, TwoLandmarksAgreeingOnAPoseConfirmARelocalizationEvenWithAn
   EXPECT_TRUE(in_a_row->kidnapped());
 }
 
+TEST(ParticleFilter, ARelocalizationOnLookAlikesIsUndoneByTheTrueLandmarks) {
+  // Landmarks 1-4 are mapped from the origin, where the robot stands. It is
+  // started kidnapped (a start in a saved map from an unknown pose), and
+  // landmarks 1 and 2, recognised on a repeated pattern, both put it at
+  // (-3, 0, 0): relocalized there. Then landmarks 3 and 4 say where it is,
+  // while landmark 1's look-alike, which agrees with the particles, keeps
+  // ending their runs of inconsistent measurements for 4 s. Within
+  // view_jump_window_s of the relocalization those runs do not mark 3 and 4
+  // as look-alikes, so once the pattern is out of view they undo it.
+  const auto at = observationAt;
+  const Pose2 origin;
+  const Pose2 third{0, 1, 0}, fourth{1, 0, 0};
+  auto run = [&](double window_s, int* kidnaps) {
+    FilterParams p = homeParams(200);
+    p.kidnap.view_jump_window_s = window_s;
+    auto pf = filterWithThreeLandmarks(p, third.between(origin));
+    pf->update(at(4, fourth.between(origin), 0));
+    pf->startKidnapped();
+    EXPECT_FALSE(pf->update(seenFromThreeMetresBack(0, 1.0)).recovered);
+    EXPECT_TRUE(pf->update(seenFromThreeMetresBack(1, 1.5)).recovered);
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);
+    double t = 2.0;
+    for (int cycle = 0; cycle < 3; ++cycle, t += 1.5) {
+      pf->update(at(3, third.between(origin), t));
+      pf->update(at(4, fourth.between(origin), t + 0.5));
+      pf->update(seenFromThreeMetresBack(0, t + 1.0));
+    }
+    EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.2);  // the look-alike held it so far
+    std::vector<UpdateReport> reports;
+    for (int k = 0; t < 20.0; ++k, t += 0.5)
+      reports.push_back(pf->update(at(k % 2 ? 4 : 3, (k % 2 ? fourth : third).between(origin), t)));
+    *kidnaps = kidnapDetections(reports);
+    return pf;
+  };
+  int kidnaps = 0;
+  const auto pf = run(20.0, &kidnaps);
+  EXPECT_EQ(kidnaps, 1);
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, 0.0, 0.2);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.2);
+  // Without the window 3 and 4 become look-alikes: the wrong pose stays.
+  const auto marked = run(0.0, &kidnaps);
+  EXPECT_EQ(kidnaps, 0);
+  EXPECT_NEAR(marked->estimate().mean.x, -3.0, 0.2);
+}
+
 // --- Drift or kidnapping --------------------------------------------------------
 
 namespace {
