@@ -127,7 +127,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "since the jump do not end a run of inconsistent measurements (they agree with the "
            "pose the robot was thought to be at by construction), and a kidnapping declared is "
            "known to be real: relocalized with every measurement, not cancelled by landmarks "
-           "placed since it began; 0: view jumps are ignored")
+           "placed since it began; for as long after a moved robot's relocalization, landmarks "
+           "that disagree with it are not taken for look-alikes; 0: view jumps are ignored")
       .add("unchecked_jump_window_s", &K::unchecked_jump_window_s, InRange{0, 600}, "s",
            "while no landmark placed before a view jump has agreed with the particles since it "
            "(the robot carried into a part of the home it has not mapped), the jump's window "
