@@ -171,7 +171,9 @@ struct KidnapParams {
   // nothing of whether it is there. Inconsistent measurements from before
   // the jump leave the run: they cannot show a move that came after them. A
   // kidnapping declared within the window, or during which a view jumps, is
-  // known to be real (robotWasMoved). 0: view jumps are ignored.
+  // known to be real (robotWasMoved). For as long after a moved robot's
+  // relocalization, landmarks that disagree with it are not marked
+  // look-alikes (endLowRun). 0: view jumps are ignored.
   double view_jump_window_s = 0.0;
   // A robot carried into a part of the home it has not mapped sees only
   // landmarks it makes there until it comes back to mapped places (generated
