@@ -9,7 +9,16 @@
 namespace vslam::frontend {
 namespace {
 
-constexpr size_t kOdometryHistory = 500;  // readings kept: 10 s at 50 Hz
+// Odometry readings are kept for the time a landmark's first view may
+// precede its creation (FrontendParams::max_view_span_s) and this margin for
+// the landmark DB's answer, so that the landmarks made here and by the other
+// cameras find their first view's odometry (anchorOf); at most this many.
+constexpr double kOdometryHistoryMarginS = 10.0;
+constexpr size_t kMaxOdometryReadings = 100000;
+// A landmark's created_odometry is this front-end's odometry if they agree
+// this closely at its created_utime (the same readings, interpolated alike).
+constexpr double kSameOdometryM = 0.01;
+constexpr double kSameOdometryRad = 0.01;
 
 // The continuity test. First the thumbnails
 // (FrontendParams::view_jump_min_thumbnail_similarity): the two frames
@@ -75,6 +84,8 @@ cv::Mat bestDescriptors(const Features& f, Before before) {
 LandmarkModel NewLandmark::model(int64_t id) const {
   LandmarkModel model;
   model.id = id;
+  model.created_utime = first_view.utime;
+  model.created_odometry = first_view.odometry;
   model.points_robot = landmark.points_robot;
   model.descriptors.create(static_cast<int>(landmark.feature_index.size()), 128, CV_32F);
   for (size_t i = 0; i < landmark.feature_index.size(); ++i) {
@@ -98,32 +109,65 @@ Frontend::Frontend(FrontendParams params)
 Frontend::OdometryVerdict Frontend::addOdometry(Utime t, const Pose2& pose) {
   if (!pose.isFinite()) return OdometryVerdict::kNotFinite;
   std::lock_guard<std::mutex> lock(odometry_mutex_);
-  if (!odometry_.empty() && t <= odometry_.back().first) return OdometryVerdict::kNotNewer;
-  odometry_.emplace_back(t, pose);
-  while (odometry_.size() > kOdometryHistory) odometry_.pop_front();
+  if (!odometry_.empty() && t <= odometry_.back().utime) return OdometryVerdict::kNotNewer;
+  OdometryReading reading{t, pose, 0, 0};
+  if (!odometry_.empty()) {
+    const OdometryReading& last = odometry_.back();
+    const Pose2 step = last.pose.between(pose);
+    reading.path_m = last.path_m + std::hypot(step.x, step.y);
+    reading.turn_rad = last.turn_rad + std::abs(step.theta);
+  }
+  odometry_.push_back(reading);
+  const Utime keep = static_cast<Utime>((params_.max_view_span_s + kOdometryHistoryMarginS) *
+                                        static_cast<double>(kMicrosPerSecond));
+  while (odometry_.size() > kMaxOdometryReadings || t - odometry_.front().utime > keep) {
+    odometry_.pop_front();
+  }
   return OdometryVerdict::kAdded;
 }
 
 bool Frontend::odometryAt(Utime t, Pose2* pose) const {
+  const auto reading = odometryReadingAt(t);
+  if (reading) *pose = reading->pose;
+  return reading.has_value();
+}
+
+std::optional<Frontend::OdometryReading> Frontend::odometryReadingAt(Utime t) const {
   std::lock_guard<std::mutex> lock(odometry_mutex_);
-  if (odometry_.empty()) return false;
-  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), t,
-                                      [](const auto& a, Utime v) { return a.first < v; });
+  if (odometry_.empty()) return std::nullopt;
+  const auto after =
+      std::lower_bound(odometry_.begin(), odometry_.end(), t,
+                       [](const OdometryReading& a, Utime v) { return a.utime < v; });
+  const auto nearest = [&](const OdometryReading& r) {
+    OdometryReading at = r;
+    at.utime = t;
+    return at;
+  };
   if (after == odometry_.end()) {
-    if (t - odometry_.back().first > params_.max_odometry_gap) return false;
-    *pose = odometry_.back().second;
-    return true;
+    if (t - odometry_.back().utime > params_.max_odometry_gap) return std::nullopt;
+    return nearest(odometry_.back());
   }
-  if (after == odometry_.begin() || after->first == t) {
-    if (after->first - t > params_.max_odometry_gap) return false;
-    *pose = after->second;
-    return true;
+  if (after == odometry_.begin() || after->utime == t) {
+    if (after->utime - t > params_.max_odometry_gap) return std::nullopt;
+    return nearest(*after);
   }
   const auto before = std::prev(after);
   const double s =
-      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
-  *pose = interpolateMotion(before->second, after->second, s);
-  return true;
+      static_cast<double>(t - before->utime) / static_cast<double>(after->utime - before->utime);
+  return OdometryReading{t, interpolateMotion(before->pose, after->pose, s),
+                         before->path_m + s * (after->path_m - before->path_m),
+                         before->turn_rad + s * (after->turn_rad - before->turn_rad)};
+}
+
+std::optional<Frontend::OdometryReading> Frontend::anchorOf(const LandmarkModel& model) const {
+  if (params_.coverage_gate.sigmas <= 0 || model.created_utime <= 0) return std::nullopt;
+  const auto at = odometryReadingAt(model.created_utime);
+  if (!at) return std::nullopt;
+  const Pose2 d = at->pose.between(model.created_odometry);
+  if (std::hypot(d.x, d.y) > kSameOdometryM || std::abs(d.theta) > kSameOdometryRad) {
+    return std::nullopt;
+  }
+  return at;
 }
 
 void Frontend::extract(const cv::Mat& gray, Features* out) { extractor_.extract(gray, out); }
@@ -132,20 +176,41 @@ FrameResult Frontend::track(Utime t, Features features) {
   FrameResult result;
   View view;
   view.utime = t;
-  result.have_odometry = odometryAt(t, &view.odometry);
+  view.features = std::move(features);
+  const std::optional<OdometryReading> odometry = odometryReadingAt(t);
+  result.have_odometry = odometry.has_value();
+  if (odometry) view.odometry = odometry->pose;
+
+  // First whether the view jumped: the robot may have been carried, and the
+  // odometry then tells nothing of where the landmarks made before are.
+  if (params_.view_jump_max_matched_share > 0 || params_.view_jump_min_thumbnail_similarity > 0) {
+    const Utime t1 = monotonicUtime();
+    testContinuity(t, view, result.have_odometry, &result);
+    result.continuity_ms = msSince(t1);
+  }
 
   Utime t0 = monotonicUtime();
   std::vector<Recognition> recognized;
+  std::vector<std::optional<OdometryReading>> anchors;
   {
     std::lock_guard<std::mutex> lock(index_mutex_);
-    recognized = index_.recognize(features);
+    if (result.view_jumped) {
+      anchors_.clear();
+      anchor_epoch_ = t;
+    }
+    recognized = index_.recognize(view.features);
+    for (const auto& r : recognized) {
+      const auto it = anchors_.find(r.landmark_id);
+      anchors.push_back(it == anchors_.end() ? std::nullopt : std::optional(it->second));
+    }
   }
   result.recognitions = static_cast<int>(recognized.size());
   result.recognition_ms = msSince(t0);
 
   t0 = monotonicUtime();
   int measured = 0;
-  for (const auto& r : recognized) {
+  for (size_t i = 0; i < recognized.size(); ++i) {
+    const Recognition& r = recognized[i];
     if (measured >= params_.max_measurements_per_frame) break;
     const auto pose =
         measurePose(r.points_robot, r.observations, measurement_camera_, params_.measurement);
@@ -157,9 +222,17 @@ FrameResult Frontend::track(Utime t, Features features) {
     const bool near_creation =
         params_.coverage_radius_m <= 0 ||
         std::hypot(pm.relative.x, pm.relative.y) <= params_.coverage_radius_m;
-    result.place_covered =
-        result.place_covered ||
-        (near_creation && prefilter(pm, params_.prefilter) == MeasurementStatus::kAccepted);
+    if (near_creation && prefilter(pm, params_.prefilter) == MeasurementStatus::kAccepted) {
+      const auto& anchor = anchors[i];
+      if (anchor && odometry &&
+          !odometryAgrees(pm.relative, anchor->pose.between(odometry->pose),
+                          odometry->path_m - anchor->path_m, odometry->turn_rad - anchor->turn_rad,
+                          params_.coverage_gate)) {
+        ++result.odometry_disagreements;
+      } else {
+        result.place_covered = true;
+      }
+    }
     if (r.landmark_id >= kFirstPendingId) continue;
     result.measurements.push_back({r.landmark_id, pm});
     ++measured;
@@ -168,17 +241,11 @@ FrameResult Frontend::track(Utime t, Features features) {
 
   t0 = monotonicUtime();
   if (result.have_odometry && !refining_.empty()) {
-    observeRefining(features, view.odometry);
+    observeRefining(view.features, view.odometry);
     refineDue(t, view.odometry, &result);
   }
-  view.features = std::move(features);
-  if (params_.view_jump_max_matched_share > 0 || params_.view_jump_min_thumbnail_similarity > 0) {
-    const Utime t1 = monotonicUtime();
-    testContinuity(t, view, result.have_odometry, &result);
-    result.continuity_ms = msSince(t1);
-  }
   if (result.have_odometry) considerCreation(std::move(view), &result);
-  result.creation_ms = msSince(t0) - result.continuity_ms;
+  result.creation_ms = msSince(t0);
   return result;
 }
 
@@ -335,12 +402,25 @@ void Frontend::refineDue(Utime t, const Pose2& odometry, FrameResult* result) {
 }
 
 void Frontend::addLandmark(LandmarkModel model) {
+  const auto anchor = anchorOf(model);
   std::lock_guard<std::mutex> lock(index_mutex_);
+  const auto it = anchors_.find(model.id);
+  // A landmark sent again (its structure refined) keeps its anchor, though
+  // its first view's odometry may be forgotten by now.
+  const bool same = it != anchors_.end() && it->second.utime == model.created_utime;
+  if (!same) {
+    if (anchor && model.created_utime >= anchor_epoch_) {
+      anchors_[model.id] = *anchor;
+    } else if (it != anchors_.end()) {
+      anchors_.erase(it);
+    }
+  }
   index_.add(std::move(model));
 }
 
 void Frontend::removeLandmark(int64_t id) {
   std::lock_guard<std::mutex> lock(index_mutex_);
+  anchors_.erase(id);
   index_.remove(id);
 }
 

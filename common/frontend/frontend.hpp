@@ -16,6 +16,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "config/robot_config.hpp"
@@ -25,6 +26,7 @@
 #include "frontend/landmark_refinement.hpp"
 #include "frontend/matching.hpp"
 #include "frontend/pose_measurement.hpp"
+#include "odometry/odometry_gate.hpp"
 #include "odometry/pose2.hpp"
 #include "util/time.hpp"
 
@@ -44,6 +46,12 @@ struct FrontendParams {
   // passes the pre-filter within this distance of its creation pose; 0: at
   // any distance. Measurement errors grow with that distance.
   double coverage_radius_m = 0.0;
+  // ...and, where this front-end's odometry saw the landmark made (and saw no
+  // view jump since), when the measurement agrees with the odometry since
+  // then (odometryAgrees): a repeated pattern recognized a period away from
+  // where it was made is a look-alike, and its place still needs a landmark
+  // of its own. 0: any measurement the pre-filter accepts covers.
+  OdometryGate coverage_gate;
   // A frame farther than this from any odometry reading has no pose: it is
   // tracked, but takes no part in landmark creation.
   Utime max_odometry_gap = 200000;
@@ -100,6 +108,10 @@ struct FrameResult {
   int recognitions = 0;                           // landmarks recognized
   int measurement_failures = 0;                   // recognized, but no pose from them
   bool place_covered = false;  // a measurement the pre-filter accepts (near enough)
+  // Measurements the pre-filter accepts that disagree with the odometry since
+  // their landmark was made (FrontendParams::coverage_gate): look-alikes,
+  // which cover nothing.
+  int odometry_disagreements = 0;
   bool have_odometry = false;  // false: the frame took no part in creation
   std::optional<NewLandmark> created;
   // A landmark made earlier (its first view names it) whose refinement was
@@ -164,6 +176,20 @@ class Frontend {
     Pose2 path_end;                   // odometry at the last frame counted in path_m
   };
 
+  // A cumulative odometry pose, with the path driven and the angle turned
+  // before it (the odometry gate's drift grows with them).
+  struct OdometryReading {
+    Utime utime = 0;
+    Pose2 pose;
+    double path_m = 0;
+    double turn_rad = 0;
+  };
+  // Interpolated at t; nullopt if no reading is near enough.
+  std::optional<OdometryReading> odometryReadingAt(Utime t) const;
+  // Where `model` was made in this front-end's odometry, if it was made since
+  // the last view jump and this odometry agrees with its created_odometry.
+  std::optional<OdometryReading> anchorOf(const LandmarkModel& model) const;
+
   void considerCreation(View view, FrameResult* result);
   // Compares the frame with the previous one (FrameResult::matched_share,
   // view_jumped) and keeps its strongest features for the next.
@@ -180,12 +206,15 @@ class Frontend {
   FeatureExtractor extractor_;
   LandmarkCreator creator_;
   MeasurementCamera measurement_camera_;
-  mutable std::mutex index_mutex_;
+  mutable std::mutex index_mutex_;  // index_, anchors_, anchor_epoch_
   LandmarkIndex index_;
+  // Where the landmarks this odometry saw made were made (anchorOf), by id.
+  std::unordered_map<int64_t, OdometryReading> anchors_;
+  Utime anchor_epoch_ = 0;  // the last view jump: landmarks made before it have no anchor
   mutable std::mutex odometry_mutex_;
-  std::deque<std::pair<Utime, Pose2>> odometry_;  // recent cumulative poses
-  std::deque<View> views_;                        // the creation window
-  std::vector<RefiningLandmark> refining_;        // made, refinement not due yet
+  std::deque<OdometryReading> odometry_;    // recent cumulative poses
+  std::deque<View> views_;                  // the creation window
+  std::vector<RefiningLandmark> refining_;  // made, refinement not due yet
   RatioMatcher refining_matcher_;
   // The previous frame's strongest features, for testContinuity.
   struct PreviousFrame {

@@ -35,6 +35,8 @@
 
 #include "frontend/features.hpp"
 #include "frontend/vocabulary_tree.hpp"
+#include "odometry/pose2.hpp"
+#include "util/time.hpp"
 
 namespace vslam::frontend {
 
@@ -47,6 +49,11 @@ struct LandmarkModel {
   // output: integers 0..255) or CV_8U; the index holds CV_8U (values rounded
   // and saturated to 0..255), which is what find() returns.
   cv::Mat descriptors;
+  // Its reference view's time and odometry pose, in the odometry of the run
+  // that made it (0: unknown). Not used by recognition: the front-end
+  // compares them with its own odometry (FrontendParams::coverage_gate_sigmas).
+  Utime created_utime = 0;
+  Pose2 created_odometry;
 };
 
 struct RecognitionParams {

@@ -22,6 +22,8 @@ constexpr Utime kMinRequestInterval = kMicrosPerSecond;  // between two replica 
 frontend::LandmarkModel modelFromMessage(const vslam::landmark_t& l, int64_t id) {
   frontend::LandmarkModel model;
   model.id = id;
+  model.created_utime = l.created_utime;
+  model.created_odometry = Pose2{l.created_odom_x, l.created_odom_y, l.created_odom_theta};
   model.descriptors.create(l.num_points, 128, CV_32F);
   for (int i = 0; i < l.num_points; ++i) {
     const size_t k = static_cast<size_t>(i);
@@ -68,6 +70,25 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             InRange{0, 100}, "m",
             "a landmark covers its place (no new one is made there) only when measured within "
             "this distance of its creation pose; 0: at any distance")
+        .add(
+            "coverage_gate_sigmas",
+            [](auto& p) -> auto& { return p.frontend.coverage_gate.sigmas; }, InRange{0, 100}, "",
+            "a landmark covers its place only when measured where the odometry since its "
+            "creation puts the robot, within this many standard deviations of the odometry's "
+            "drift (coverage_odometry_sigma_*) plus the measurement's error: a repeated pattern "
+            "recognized a period away is a look-alike and its place gets a landmark of its own "
+            "(only for landmarks made in view of this front-end's odometry since the last view "
+            "jump); 0: any measurement the pre-filter accepts covers")
+        .add(
+            "coverage_odometry_sigma_translation",
+            [](auto& p) -> auto& { return p.frontend.coverage_gate.sigma_translation; },
+            InRange{0, 1}, "m/sqrt(m)",
+            "the odometry's translation drift assumed by coverage_gate_sigmas: the worst the "
+            "robot's wheels are expected to have, not the typical")
+        .add(
+            "coverage_odometry_sigma_rotation",
+            [](auto& p) -> auto& { return p.frontend.coverage_gate.sigma_rotation; }, InRange{0, 1},
+            "rad/sqrt(m+rad)", "its heading drift, likewise")
         .add(
             "refine_distance_m", [](auto& p) -> auto& { return p.frontend.refine_distance_m; },
             InRange{0, 5}, "m",
@@ -485,6 +506,7 @@ void FrontendStage::process(vslam::image_t& msg) {
   stats_.recognitions += result.recognitions;
   stats_.measurements += static_cast<int64_t>(result.measurements.size());
   stats_.measurement_failures += result.measurement_failures;
+  stats_.odometry_disagreements += result.odometry_disagreements;
   stats_.no_odometry += result.have_odometry ? 0 : 1;
   stats_.prefetched += have_features ? 1 : 0;
   stats_.gained += gained ? 1 : 0;
@@ -642,6 +664,8 @@ void FrontendStage::collectHealth(bus::HealthReport& report) {
   report.add("measurement_failures", static_cast<double>(d.measurement_failures), "count");
   report.add("landmarks_created", static_cast<double>(stats_.created), "count");
   report.add("landmarks_refined", static_cast<double>(stats_.refined), "count");
+  report.add("measurements_against_odometry", static_cast<double>(stats_.odometry_disagreements),
+             "count");
   report.add("landmark_revisions_sent", static_cast<double>(stats_.revisions_sent), "count");
   report.add("creation_failures", static_cast<double>(d.creation_failures), "count");
   report.add("sift_ms", d.sift_ms / frames, "ms");

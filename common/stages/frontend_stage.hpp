@@ -100,10 +100,11 @@ class FrontendStage final : public bus::Stage {
     double sift_ms = 0, recognition_ms = 0, measurement_ms = 0, creation_ms = 0;
     int64_t acknowledged = 0, rejected = 0, resent = 0, sync_requests = 0, replica_added = 0,
             replica_removed = 0;
-    int64_t prefetched = 0;      // frames whose features prefetch() extracted (replay)
-    int64_t gained = 0;          // dim frames scaled up before SIFT
-    int64_t refined = 0;         // landmarks refined from later views
-    int64_t revisions_sent = 0;  // of those, revisions sent to the DB
+    int64_t prefetched = 0;              // frames whose features prefetch() extracted (replay)
+    int64_t gained = 0;                  // dim frames scaled up before SIFT
+    int64_t refined = 0;                 // landmarks refined from later views
+    int64_t revisions_sent = 0;          // of those, revisions sent to the DB
+    int64_t odometry_disagreements = 0;  // FrameResult::odometry_disagreements
   };
 
   void onImage(const vslam::image_t& msg);

@@ -123,6 +123,9 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
        "library's frames are not tested"},
       {"frontend.refine_distance_m",
        "tuning homes 21-52 (docs/benchmark-homes.md); the library keeps the paper's three views"},
+      {"frontend.coverage_gate_sigmas",
+       "repeated wall patterns of tuning homes 1200-1219 (docs/frontend.md, \"Coverage checked by "
+       "the odometry\"); the library keeps the paper's coverage by any accepted measurement"},
       {"backend.kidnap.view_jump_window_s",
        "carries of the tuning homes (docs/backend.md, \"View jumps\"); the library ignores them"},
       {"backend.kidnap.unchecked_jump_window_s",

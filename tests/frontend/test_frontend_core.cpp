@@ -1,7 +1,8 @@
 // The front-end's LCM-free core (frontend::Frontend) on rendered frames of the
 // apartment with exact odometry: the odometry it keeps, the creation window
 // (three views creation_baseline_m apart, none where a landmark covers the
-// place), measurements of global landmarks only, and the coverage radius.
+// place), measurements of global landmarks only, the coverage radius and
+// the coverage's odometry gate.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "config/robot_config.hpp"
 #include "frontend/frontend.hpp"
@@ -54,9 +56,10 @@ class FrontendCore : public ::testing::Test {
   }
   static Utime timeAt(int k) { return 1767225600LL * kMicrosPerSecond + k * kStep; }
 
-  // Odometry for frame k (exact, in a frame of its own), then the frame.
+  // Odometry for frame k (exact, in a frame of its own, but for
+  // odometry_offset_y_), then the frame.
   FrameResult step(Frontend& frontend, int k) {
-    EXPECT_EQ(frontend.addOdometry(timeAt(k), Pose2{0.02 * k, 0.0, 0.0}),
+    EXPECT_EQ(frontend.addOdometry(timeAt(k), Pose2{0.02 * k, odometry_offset_y_, 0.0}),
               Frontend::OdometryVerdict::kAdded);
     auto cached = frames_.find(k);
     if (cached == frames_.end()) {
@@ -101,6 +104,7 @@ class FrontendCore : public ::testing::Test {
   static inline std::unique_ptr<world::Renderer> renderer_;
   static inline std::map<int, Features> frames_;
   FrontendParams params_;
+  double odometry_offset_y_ = 0;
 };
 
 TEST_F(FrontendCore, OdometryIsInterpolatedAndBadReadingsAreRefused) {
@@ -172,6 +176,45 @@ TEST_F(FrontendCore, ALandmarkFartherThanTheCoverageRadiusDoesNotCoverThePlace) 
   ASSERT_TRUE(second);
   EXPECT_EQ(second->first_view.utime, timeAt(made_at + 1));
   EXPECT_EQ(second_at, made_at + 21);
+}
+
+// A landmark measured where the odometry since it was made says the robot
+// is not (here the odometry puts the robot 1.5 m to the left from then on,
+// as a wall pattern recognized one period along would) is a look-alike: it
+// is measured as before (the back-end judges it), but covers nothing, so
+// the window fills again and the place gets a landmark of its own. With the
+// gate off, the same frames are covered.
+TEST_F(FrontendCore, ALandmarkMeasuredAwayFromWhereTheOdometryPutsItDoesNotCoverThePlace) {
+  for (const double sigmas : {3.0, 0.0}) {
+    SCOPED_TRACE(sigmas);
+    params_.coverage_gate.sigmas = sigmas;
+    odometry_offset_y_ = 0;
+    Frontend frontend(params_);
+    int made_at = -1;
+    const auto created = driveUntilCreated(frontend, 0, 40, &made_at);
+    ASSERT_TRUE(created);
+    frontend.addLandmark(created->model(7));
+    odometry_offset_y_ = 1.5;
+    int disagreements = 0, covered = 0;
+    std::optional<NewLandmark> second;
+    for (int k = made_at + 1; k <= made_at + 25 && !second; ++k) {
+      FrameResult r = step(frontend, k);
+      expectMeasuresTheTruth(r, k, 7);
+      disagreements += r.odometry_disagreements;
+      covered += r.place_covered ? 1 : 0;
+      second = std::move(r.created);
+    }
+    if (sigmas > 0) {
+      EXPECT_GE(disagreements, 20);
+      EXPECT_EQ(covered, 0);
+      ASSERT_TRUE(second) << "the look-alike's place got no landmark of its own";
+      EXPECT_EQ(second->first_view.utime, timeAt(made_at + 1));
+    } else {
+      EXPECT_EQ(disagreements, 0);
+      EXPECT_GE(covered, 20);
+      EXPECT_FALSE(second);
+    }
+  }
 }
 
 // With refine_distance_m a new landmark is handed on when made and measured
