@@ -155,9 +155,8 @@ std::optional<OdometryAt> Backend::odometryAt(int64_t utime, double max_age_s,
   const HistoryEntry& b = history_[hi];
   const double span = static_cast<double>(b.reading.utime - a.reading.utime);
   const double f = span > 0 ? static_cast<double>(utime - a.reading.utime) / span : 1.0;
-  return OdometryAt{interpolateMotion(a.reading.pose, b.reading.pose, f),
-                    a.distance_m + f * (b.distance_m - a.distance_m),
-                    a.rotation_rad + f * (b.rotation_rad - a.rotation_rad)};
+  return interpolateOdometry({a.reading.pose, a.distance_m, a.rotation_rad},
+                             {b.reading.pose, b.distance_m, b.rotation_rad}, f);
 }
 
 Pose2 Backend::estimateAt(const Pose2& then) const {

@@ -101,13 +101,8 @@ struct PoseGraphParams {
   void validate() const;  // throws std::invalid_argument naming the bad field
 };
 
-// The odometry at a node: cumulative pose, and the path driven and turned
-// since the start (for the motion model's covariance between two nodes).
-struct OdometryAt {
-  Pose2 pose;
-  double distance_m = 0;
-  double rotation_rad = 0;
-};
+// The odometry at a node (for the motion model's covariance between two nodes).
+using vslam::OdometryAt;
 
 struct PoseGraphSolveSummary {
   bool solved = false;  // Ceres returned a usable solution (converged or hit the iteration limit)

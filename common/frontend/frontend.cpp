@@ -109,65 +109,57 @@ Frontend::Frontend(FrontendParams params)
 Frontend::OdometryVerdict Frontend::addOdometry(Utime t, const Pose2& pose) {
   if (!pose.isFinite()) return OdometryVerdict::kNotFinite;
   std::lock_guard<std::mutex> lock(odometry_mutex_);
-  if (!odometry_.empty() && t <= odometry_.back().utime) return OdometryVerdict::kNotNewer;
-  OdometryReading reading{t, pose, 0, 0};
+  if (!odometry_.empty() && t <= odometry_.back().first) return OdometryVerdict::kNotNewer;
+  OdometryAt at{pose, 0, 0};
   if (!odometry_.empty()) {
-    const OdometryReading& last = odometry_.back();
+    const OdometryAt& last = odometry_.back().second;
     const Pose2 step = last.pose.between(pose);
-    reading.path_m = last.path_m + std::hypot(step.x, step.y);
-    reading.turn_rad = last.turn_rad + std::abs(step.theta);
+    at.distance_m = last.distance_m + std::hypot(step.x, step.y);
+    at.rotation_rad = last.rotation_rad + std::abs(step.theta);
   }
-  odometry_.push_back(reading);
+  odometry_.emplace_back(t, at);
   const Utime keep = static_cast<Utime>((params_.max_view_span_s + kOdometryHistoryMarginS) *
                                         static_cast<double>(kMicrosPerSecond));
-  while (odometry_.size() > kMaxOdometryReadings || t - odometry_.front().utime > keep) {
+  while (odometry_.size() > kMaxOdometryReadings || t - odometry_.front().first > keep) {
     odometry_.pop_front();
   }
   return OdometryVerdict::kAdded;
 }
 
 bool Frontend::odometryAt(Utime t, Pose2* pose) const {
-  const auto reading = odometryReadingAt(t);
-  if (reading) *pose = reading->pose;
-  return reading.has_value();
+  const auto at = odometryWithTotalsAt(t);
+  if (at) *pose = at->pose;
+  return at.has_value();
 }
 
-std::optional<Frontend::OdometryReading> Frontend::odometryReadingAt(Utime t) const {
+std::optional<OdometryAt> Frontend::odometryWithTotalsAt(Utime t) const {
   std::lock_guard<std::mutex> lock(odometry_mutex_);
   if (odometry_.empty()) return std::nullopt;
-  const auto after =
-      std::lower_bound(odometry_.begin(), odometry_.end(), t,
-                       [](const OdometryReading& a, Utime v) { return a.utime < v; });
-  const auto nearest = [&](const OdometryReading& r) {
-    OdometryReading at = r;
-    at.utime = t;
-    return at;
-  };
+  const auto after = std::lower_bound(odometry_.begin(), odometry_.end(), t,
+                                      [](const auto& a, Utime v) { return a.first < v; });
   if (after == odometry_.end()) {
-    if (t - odometry_.back().utime > params_.max_odometry_gap) return std::nullopt;
-    return nearest(odometry_.back());
+    if (t - odometry_.back().first > params_.max_odometry_gap) return std::nullopt;
+    return odometry_.back().second;
   }
-  if (after == odometry_.begin() || after->utime == t) {
-    if (after->utime - t > params_.max_odometry_gap) return std::nullopt;
-    return nearest(*after);
+  if (after == odometry_.begin() || after->first == t) {
+    if (after->first - t > params_.max_odometry_gap) return std::nullopt;
+    return after->second;
   }
   const auto before = std::prev(after);
   const double s =
-      static_cast<double>(t - before->utime) / static_cast<double>(after->utime - before->utime);
-  return OdometryReading{t, interpolateMotion(before->pose, after->pose, s),
-                         before->path_m + s * (after->path_m - before->path_m),
-                         before->turn_rad + s * (after->turn_rad - before->turn_rad)};
+      static_cast<double>(t - before->first) / static_cast<double>(after->first - before->first);
+  return interpolateOdometry(before->second, after->second, s);
 }
 
-std::optional<Frontend::OdometryReading> Frontend::anchorOf(const LandmarkModel& model) const {
+std::optional<Frontend::Anchor> Frontend::anchorOf(const LandmarkModel& model) const {
   if (params_.coverage_gate.sigmas <= 0 || model.created_utime <= 0) return std::nullopt;
-  const auto at = odometryReadingAt(model.created_utime);
+  const auto at = odometryWithTotalsAt(model.created_utime);
   if (!at) return std::nullopt;
   const Pose2 d = at->pose.between(model.created_odometry);
   if (std::hypot(d.x, d.y) > kSameOdometryM || std::abs(d.theta) > kSameOdometryRad) {
     return std::nullopt;
   }
-  return at;
+  return Anchor{model.created_utime, *at};
 }
 
 void Frontend::extract(const cv::Mat& gray, Features* out) { extractor_.extract(gray, out); }
@@ -177,7 +169,7 @@ FrameResult Frontend::track(Utime t, Features features) {
   View view;
   view.utime = t;
   view.features = std::move(features);
-  const std::optional<OdometryReading> odometry = odometryReadingAt(t);
+  const std::optional<OdometryAt> odometry = odometryWithTotalsAt(t);
   result.have_odometry = odometry.has_value();
   if (odometry) view.odometry = odometry->pose;
 
@@ -191,7 +183,7 @@ FrameResult Frontend::track(Utime t, Features features) {
 
   Utime t0 = monotonicUtime();
   std::vector<Recognition> recognized;
-  std::vector<std::optional<OdometryReading>> anchors;
+  std::vector<std::optional<OdometryAt>> anchors;
   {
     std::lock_guard<std::mutex> lock(index_mutex_);
     if (result.view_jumped) {
@@ -201,7 +193,7 @@ FrameResult Frontend::track(Utime t, Features features) {
     recognized = index_.recognize(view.features);
     for (const auto& r : recognized) {
       const auto it = anchors_.find(r.landmark_id);
-      anchors.push_back(it == anchors_.end() ? std::nullopt : std::optional(it->second));
+      anchors.push_back(it == anchors_.end() ? std::nullopt : std::optional(it->second.odometry));
     }
   }
   result.recognitions = static_cast<int>(recognized.size());
@@ -225,9 +217,7 @@ FrameResult Frontend::track(Utime t, Features features) {
     if (near_creation && prefilter(pm, params_.prefilter) == MeasurementStatus::kAccepted) {
       const auto& anchor = anchors[i];
       if (anchor && odometry &&
-          !odometryAgrees(pm.relative, anchor->pose.between(odometry->pose),
-                          odometry->path_m - anchor->path_m, odometry->turn_rad - anchor->turn_rad,
-                          params_.coverage_gate)) {
+          !odometryAgrees(pm.relative, *anchor, *odometry, params_.coverage_gate)) {
         ++result.odometry_disagreements;
       } else {
         result.place_covered = true;
@@ -407,7 +397,7 @@ void Frontend::addLandmark(LandmarkModel model) {
   const auto it = anchors_.find(model.id);
   // A landmark sent again (its structure refined) keeps its anchor, though
   // its first view's odometry may be forgotten by now.
-  const bool same = it != anchors_.end() && it->second.utime == model.created_utime;
+  const bool same = it != anchors_.end() && it->second.created_utime == model.created_utime;
   if (!same) {
     if (anchor && model.created_utime >= anchor_epoch_) {
       anchors_[model.id] = *anchor;

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "config/robot_config.hpp"
@@ -176,19 +177,16 @@ class Frontend {
     Pose2 path_end;                   // odometry at the last frame counted in path_m
   };
 
-  // A cumulative odometry pose, with the path driven and the angle turned
-  // before it (the odometry gate's drift grows with them).
-  struct OdometryReading {
-    Utime utime = 0;
-    Pose2 pose;
-    double path_m = 0;
-    double turn_rad = 0;
+  // The odometry with its path totals, interpolated at t; nullopt if no
+  // reading is near enough.
+  std::optional<OdometryAt> odometryWithTotalsAt(Utime t) const;
+  // Where a landmark was made in this front-end's odometry (anchorOf).
+  struct Anchor {
+    Utime created_utime = 0;
+    OdometryAt odometry;
   };
-  // Interpolated at t; nullopt if no reading is near enough.
-  std::optional<OdometryReading> odometryReadingAt(Utime t) const;
-  // Where `model` was made in this front-end's odometry, if it was made since
-  // the last view jump and this odometry agrees with its created_odometry.
-  std::optional<OdometryReading> anchorOf(const LandmarkModel& model) const;
+  // `model`'s anchor, if this odometry agrees with its created_odometry.
+  std::optional<Anchor> anchorOf(const LandmarkModel& model) const;
 
   void considerCreation(View view, FrameResult* result);
   // Compares the frame with the previous one (FrameResult::matched_share,
@@ -209,12 +207,12 @@ class Frontend {
   mutable std::mutex index_mutex_;  // index_, anchors_, anchor_epoch_
   LandmarkIndex index_;
   // Where the landmarks this odometry saw made were made (anchorOf), by id.
-  std::unordered_map<int64_t, OdometryReading> anchors_;
+  std::unordered_map<int64_t, Anchor> anchors_;
   Utime anchor_epoch_ = 0;  // the last view jump: landmarks made before it have no anchor
   mutable std::mutex odometry_mutex_;
-  std::deque<OdometryReading> odometry_;    // recent cumulative poses
-  std::deque<View> views_;                  // the creation window
-  std::vector<RefiningLandmark> refining_;  // made, refinement not due yet
+  std::deque<std::pair<Utime, OdometryAt>> odometry_;  // recent cumulative poses
+  std::deque<View> views_;                             // the creation window
+  std::vector<RefiningLandmark> refining_;             // made, refinement not due yet
   RatioMatcher refining_matcher_;
   // The previous frame's strongest features, for testContinuity.
   struct PreviousFrame {

@@ -21,4 +21,11 @@ bool odometryAgrees(const Pose2& measured, const Pose2& by_odometry, double path
          error_rad <= gate.sigmas * sigma_heading + gate.min_error_rad;
 }
 
+bool odometryAgrees(const Pose2& measured, const OdometryAt& created, const OdometryAt& now,
+                    const OdometryGate& gate) {
+  return odometryAgrees(measured, created.pose.between(now.pose),
+                        now.distance_m - created.distance_m,
+                        now.rotation_rad - created.rotation_rad, gate);
+}
+
 }  // namespace vslam

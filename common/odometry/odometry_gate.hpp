@@ -31,5 +31,8 @@ struct OdometryGate {
 // turned in between, within `gate`. Always true when the gate is off.
 bool odometryAgrees(const Pose2& measured, const Pose2& by_odometry, double path_m, double turn_rad,
                     const OdometryGate& gate);
+// The same with the odometry at the landmark's creation and now.
+bool odometryAgrees(const Pose2& measured, const OdometryAt& created, const OdometryAt& now,
+                    const OdometryGate& gate);
 
 }  // namespace vslam

@@ -50,4 +50,18 @@ inline Pose2 interpolateMotion(const Pose2& a, const Pose2& b, double s) {
   return a.compose({s * d.x, s * d.y, s * d.theta});
 }
 
+// A cumulative odometry pose with the path driven and the angle turned up
+// to it: the odometry's drift between two of them grows with both (the
+// pose graph's odometry edges, odometryAgrees).
+struct OdometryAt {
+  Pose2 pose;
+  double distance_m = 0;
+  double rotation_rad = 0;
+};
+// Between two of them: interpolateMotion, and the totals linearly.
+inline OdometryAt interpolateOdometry(const OdometryAt& a, const OdometryAt& b, double s) {
+  return {interpolateMotion(a.pose, b.pose, s), a.distance_m + s * (b.distance_m - a.distance_m),
+          a.rotation_rad + s * (b.rotation_rad - a.rotation_rad)};
+}
+
 }  // namespace vslam
