@@ -41,7 +41,9 @@ ip -n "$host" route add 239.255.76.67/32 dev vslam0
 ip -n "$robot" route add 239.255.76.67/32 dev vslam0
 ip -n "$lan" route add 239.255.76.67/32 dev eth0
 
-# Prints the tags of the datagrams it hears on port 7667 for 2 s.
+# Prints "ready" once bound and joined, then the tags of the datagrams it
+# hears on port 7667 for 2 s. The senders wait for "ready": on a loaded CI
+# machine Python took over 0.5 s to start, and the first datagram was lost.
 listen() {
   ip netns exec "$host" /usr/bin/python3 -c '
 import socket, struct, time
@@ -51,6 +53,7 @@ s.bind(("", 7667))
 s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
              struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
 s.settimeout(0.2)
+print("ready", flush=True)
 end = time.time() + 2.0
 while time.time() < end:
     try:
@@ -70,14 +73,17 @@ for _ in range(3):
 }
 heard() {
   listen >"$work" &
-  local pid=$!
-  sleep 0.5
+  local pid=$! tries=0
+  until grep -q '^ready$' "$work"; do
+    ((++tries < 200)) || fail "the listener did not start in 20 s"
+    sleep 0.1
+  done
   send "$lan" 10.1.0.1 1 lan-unicast
   send "$robot" 239.255.76.67 1 robot-multicast
   send "$robot" 10.2.0.1 1 robot-unicast
   send "$host" 239.255.76.67 0 own-ttl0
   wait "$pid"
-  sort -u "$work" | tr '\n' ' '
+  grep -v '^ready$' "$work" | sort -u | tr '\n' ' '
 }
 work=$(mktemp "${TMPDIR:-/tmp}/vslam-test-firewall.XXXXXX")
 trap 'cleanup; rm -f "$work"' EXIT
