@@ -138,7 +138,9 @@ struct KidnapParams {
   // two of them agreeing there is chance (generated home 1116: four
   // landmarks 0.65-2 m off in four directions for 20 s, two of them within
   // 0.5 m of each other). Drift corrections are not held back: refusing one
-  // leaves the drift to grow into a kidnapping. 0: off.
+  // leaves the drift to grow into a kidnapping. Nor is the correction of a
+  // moved robot's relocalization (view_jump_window_s after it): made on a
+  // look-alike's word, every landmark disagrees with it. 0: off.
   double detect_dissent_ratio = 0.0;
   // The hypothesis a kidnapping replaced stays alive until it is resolved:
   // the particles as they were when it was declared, carried by the

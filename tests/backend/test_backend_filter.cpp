@@ -826,6 +826,63 @@ TEST(ParticleFilter, TwoLookAlikesAgreeingWhileAThirdPutsTheRobotElsewhereAreNoK
   EXPECT_GE(kidnapsWithAThirdLandmarkAt({4.0, 0.5, 0.3}, 0.5), 1);
 }
 
+namespace {
+
+// Five landmarks mapped from near the origin. The robot is then
+// relocalized at `relocalized_at` on the word of landmarks 1 and 2 (after
+// a view jump if `seen_moved`: a carry), and afterwards landmarks 3 and 4
+// put it at one place while landmark 5 puts it at another, in turn.
+// Returns how many kidnappings those three declared.
+int kidnapsAfterARelocalization(bool seen_moved) {
+  FilterParams p = homeParams(200);
+  p.kidnap.cancel_count = 0;
+  p.kidnap.detect_dissent_ratio = 0.5;
+  p.kidnap.view_jump_window_s = 20.0;
+  ParticleFilter pf(p);
+  const std::vector<Pose2> made_from = {
+      {1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}, {0.8, 0.1, 0.3}, {1.1, 0.3, -0.1}, {0.9, -0.2, 0.2}};
+  std::vector<Pose2> landmark;
+  for (size_t k = 0; k < made_from.size(); ++k) {
+    Observation first{static_cast<int64_t>(k + 1), made_from[k]};
+    first.utime = 1;
+    pf.update(first);
+    landmark.push_back(Pose2{}.compose(made_from[k].inverse()));
+  }
+  auto seen = [&](size_t k, const Pose2& from, int64_t utime) {
+    Observation obs{static_cast<int64_t>(k + 1), predictMeasurement(from, landmark[k])};
+    obs.utime = utime;
+    return pf.update(obs);
+  };
+  if (seen_moved) pf.noteViewJump(900'000);
+  const Pose2 relocalized_at{4.0, 0.5, 0.3};
+  bool relocalized = false;
+  for (int i = 0; i < 16 && !relocalized; ++i) {
+    const UpdateReport rep = seen(i % 2, relocalized_at, 1'000'000 + i * 250'000);
+    relocalized = rep.recovered && !pf.kidnapped();
+  }
+  EXPECT_TRUE(relocalized);
+  EXPECT_NEAR(pf.estimate().mean.x, relocalized_at.x, 0.2);
+  const Pose2 true_place{-1.0, 2.5, -1.2}, elsewhere{2.0, -3.0, 2.0};
+  int kidnaps = 0;
+  for (int i = 0; i < 12; ++i) {
+    const size_t k = 2 + i % 3;
+    kidnaps += seen(k, k == 4 ? elsewhere : true_place, 6'000'000 + i * 250'000).kidnap_detected;
+  }
+  return kidnaps;
+}
+
+}  // namespace
+
+TEST(ParticleFilter, SoonAfterACarrysRelocalizationTwoLandmarksAgreeingElsewhereAreNotOutvoted) {
+  // A carried robot relocalized on a look-alike's word: the true landmarks
+  // agree with each other and not with it, and a third one's scattered
+  // measurement does not outvote them (generated home 1235).
+  EXPECT_GE(kidnapsAfterARelocalization(true), 1);
+  // The control: a relocalization with no view jump is no carry's, and
+  // the dissent rule holds as in the test above.
+  EXPECT_EQ(kidnapsAfterARelocalization(false), 0);
+}
+
 TEST(ParticleFilter, WhileKidnappedThePublishedPoseHoldsUntilTheRelocalizationIsConfirmed) {
   FilterParams p = homeParams(50);
   p.kidnap.detect_min_span_s = 0;
