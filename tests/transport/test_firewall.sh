@@ -42,8 +42,9 @@ ip -n "$robot" route add 239.255.76.67/32 dev vslam0
 ip -n "$lan" route add 239.255.76.67/32 dev eth0
 
 # Prints "ready" once bound and joined, then the tags of the datagrams it
-# hears on port 7667 for 2 s. The senders wait for "ready": on a loaded CI
-# machine Python took over 0.5 s to start, and the first datagram was lost.
+# hears on port 7667 until "end" (this computer's own, sent last) and 0.3 s
+# more, or 20 s. The senders wait for "ready": on a loaded CI machine Python
+# took over 0.5 s to start, and the first datagram was lost.
 listen() {
   ip netns exec "$host" /usr/bin/python3 -c '
 import socket, struct, time
@@ -54,12 +55,16 @@ s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
              struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
 s.settimeout(0.2)
 print("ready", flush=True)
-end = time.time() + 2.0
+end = time.time() + 20.0
 while time.time() < end:
     try:
-        print(s.recv(100).decode(), flush=True)
+        tag = s.recv(100).decode()
     except socket.timeout:
-        pass
+        continue
+    if tag == "end":
+        end = min(end, time.time() + 0.3)
+    else:
+        print(tag, flush=True)
 '
 }
 send() {  # NAMESPACE ADDRESS TTL TAG
@@ -75,13 +80,14 @@ heard() {
   listen >"$work" &
   local pid=$! tries=0
   until grep -q '^ready$' "$work"; do
-    ((++tries < 200)) || fail "the listener did not start in 20 s"
+    ((++tries < 100)) || fail "the listener did not start in 10 s"
     sleep 0.1
   done
   send "$lan" 10.1.0.1 1 lan-unicast
   send "$robot" 239.255.76.67 1 robot-multicast
   send "$robot" 10.2.0.1 1 robot-unicast
   send "$host" 239.255.76.67 0 own-ttl0
+  send "$host" 239.255.76.67 0 end
   wait "$pid"
   grep -v '^ready$' "$work" | sort -u | tr '\n' ' '
 }
