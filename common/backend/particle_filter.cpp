@@ -949,20 +949,22 @@ std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
   // away, somewhere else every few seconds; two false kidnappings). Not within
   // view_jump_window_s of a view jump: a robot being carried wanders too.
   const bool skip_wandering = !recentViewJump(low_run_.back().utime);
+  // Outvoted: a busy repeated pattern, not a move (KidnapParams::detect_dissent_ratio).
+  // Not near a view jump (as above), nor soon after a moved robot's
+  // relocalization: the particles then stand on a few landmarks' word, and
+  // when that was a look-alike's every landmark disagrees with them, the
+  // true ones agreeing with each other and the rest scattered (generated
+  // home 1235: relocalized 5.5 m off after a carry, three landmarks
+  // agreeing on the true pose 3 s later, outvoted by four scattered ones
+  // for 32 s).
+  const bool dissent_outvotes = kp.detect_dissent_ratio > 0 && skip_wandering &&
+                                !recentlyRelocalizedAfterAMove(low_run_.back().utime);
   for (size_t i = 0; i < low_run_.size(); ++i) {
     Evidence at;
     const int agreeing = agreeingLandmarks(low_run_, i, &at, skip_wandering);
     if (agreeing < kp.detect_landmarks) continue;
-    // Outvoted: a busy repeated pattern, not a move (KidnapParams::detect_dissent_ratio).
-    // Not soon after a moved robot's relocalization: the particles then
-    // stand on a few landmarks' word, and when that was a look-alike's every
-    // landmark disagrees with them, the true ones agreeing with each other
-    // and the rest scattered (generated home 1235: relocalized 5.5 m off
-    // after a carry, three landmarks agreeing on the true pose 3 s later,
-    // outvoted by four scattered ones for 32 s).
     // The drift test last: it needs the particles' estimate, O(particles).
-    if (kp.detect_dissent_ratio > 0 && skip_wandering &&
-        !recentlyRelocalizedAfterAMove(low_run_.back().utime) &&
+    if (dissent_outvotes &&
         dissentingLandmarks(low_run_, carriedToNow(low_run_[i])) >=
             kp.detect_dissent_ratio * agreeing &&
         !withinDriftGate(driftMahalanobisSq(estimate(), at)))

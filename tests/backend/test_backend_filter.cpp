@@ -751,6 +751,19 @@ TEST(ParticleFilter, ARealKidnappingIsStillDetectedAmongRepeatedPatterns) {
 
 namespace {
 
+// Landmarks 1, 2, ... first measured at `made_from[k]` from the origin (at
+// time 1 us); returns their poses.
+std::vector<Pose2> mapLandmarksFrom(ParticleFilter& pf, const std::vector<Pose2>& made_from) {
+  std::vector<Pose2> landmark;
+  for (size_t k = 0; k < made_from.size(); ++k) {
+    Observation first{static_cast<int64_t>(k + 1), made_from[k]};
+    first.utime = 1;
+    pf.update(first);
+    landmark.push_back(Pose2{}.compose(made_from[k].inverse()));
+  }
+  return landmark;
+}
+
 // Landmarks 1, 2, ... mapped from the origin, each first measured at
 // `made_from[k]`, then recognised for 3 s, in turn, as if the robot stood
 // at `seen_from(i, k)` (i: the measurement, k: the landmark's index) while
@@ -758,13 +771,7 @@ namespace {
 int kidnapsWhileRecognisedAt(ParticleFilter& pf, const std::vector<Pose2>& made_from,
                              const std::function<Pose2(int, int)>& seen_from) {
   const int n = static_cast<int>(made_from.size());
-  std::vector<Pose2> landmark;
-  for (int k = 0; k < n; ++k) {
-    Observation first{k + 1, made_from[k]};
-    first.utime = 1;
-    pf.update(first);
-    landmark.push_back(Pose2{}.compose(made_from[k].inverse()));
-  }
+  const std::vector<Pose2> landmark = mapLandmarksFrom(pf, made_from);
   int kidnaps = 0;
   for (int i = 0; i < 12; ++i) {
     const int k = i % n;
@@ -841,13 +848,7 @@ int kidnapsAfterARelocalization(bool seen_moved) {
   ParticleFilter pf(p);
   const std::vector<Pose2> made_from = {
       {1.0, 0.5, 0.1}, {1.2, -0.4, -0.2}, {0.8, 0.1, 0.3}, {1.1, 0.3, -0.1}, {0.9, -0.2, 0.2}};
-  std::vector<Pose2> landmark;
-  for (size_t k = 0; k < made_from.size(); ++k) {
-    Observation first{static_cast<int64_t>(k + 1), made_from[k]};
-    first.utime = 1;
-    pf.update(first);
-    landmark.push_back(Pose2{}.compose(made_from[k].inverse()));
-  }
+  const std::vector<Pose2> landmark = mapLandmarksFrom(pf, made_from);
   auto seen = [&](size_t k, const Pose2& from, int64_t utime) {
     Observation obs{static_cast<int64_t>(k + 1), predictMeasurement(from, landmark[k])};
     obs.utime = utime;
