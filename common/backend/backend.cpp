@@ -225,6 +225,28 @@ void Backend::noteConsistent(int64_t landmark_id, const OdometryAt& then, const 
   }
 }
 
+void Backend::moveRelocalizedSegment(int64_t utime, const Pose2& shift) {
+  // A drift correction this soon after a moved robot's relocalization says
+  // the relocalization was off (generated home 1239: 0.45 m, two
+  // corrections towards the truth). The graph's segment begun there is tied
+  // to the map by the measurements that agreed with the wrong pose, and the
+  // filter's newer measurements cannot outweigh them at once: the next
+  // solve would put the particles back where the correction took them from
+  // (applyCorrection), twice in 1239, until a false kidnapping 21 s later.
+  // So the segment moves with the particles and drops those measurements;
+  // a solve begun before is stale.
+  if (!graph_->moveSegment(utime, shift)) return;
+  if (solving_.valid()) {
+    solving_.wait();
+    solving_ = {};
+    solving_graph_.reset();
+  }
+  if (newest_graph_node_ >= 0 &&
+      graph_->nodeSegment(newest_graph_node_) == graph_->segmentAt(utime))
+    newest_graph_node_filter_ = shift.compose(newest_graph_node_filter_);
+  ++counters_.graph_segments_moved;
+}
+
 void Backend::loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmarks) {
   if (graph_ && (graph_->numNodes() > 0 || graph_->numLandmarks() > 0))
     throw std::logic_error("backend: a saved map is loaded before the run begins");
@@ -450,6 +472,8 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     graph_last_used_.erase(m.landmark_id);
     landmark_drift_.erase(m.landmark_id);
   }
+  if (u.drift_corrected && graph_ && filter_.recentlyRelocalizedAfterAMove(m.utime))
+    moveRelocalizedSegment(m.utime, u.drift_shift);
   if (u.kidnap_detected) deferred_.clear();
   if (u.deferred) deferred_[m.landmark_id] = m;
   if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();

@@ -182,6 +182,9 @@ struct BackendCounters {
   int64_t graph_solves = 0;
   int64_t graph_solve_failures = 0;
   int64_t graph_odometry_breaks = 0;  // kidnappings (and odometry resets) that split the graph
+  // Segments begun at a moved robot's relocalization, moved with the drift
+  // correction that showed the relocalization off (Backend::moveRelocalizedSegment).
+  int64_t graph_segments_moved = 0;
   double graph_last_solve_ms = 0;
   // Updates that waited for the background solve (it took longer than the
   // solve interval of robot time: a replay faster than real time, or a graph
@@ -284,6 +287,9 @@ class Backend {
     return {at.distance_m - drift_origin_.distance_m, at.rotation_rad - drift_origin_.rotation_rad};
   }
   void noteConsistent(int64_t landmark_id, const OdometryAt& then, const Pose2& relative);
+  // The filter corrected a moved robot's recent relocalization by `shift`
+  // (a drift correction): the graph's segment since follows.
+  void moveRelocalizedSegment(int64_t utime, const Pose2& shift);
   DriftSpan drift_origin_;  // the odometry totals at which the robot's span was zero
   std::unordered_map<int64_t, DriftSpan> landmark_drift_;
   // The solve in the background (solve_in_background): the copy it works on

@@ -589,7 +589,8 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         // Drift: every particle moves (keeping its spread and map) by the
         // share of the jump the two uncertainties give it; this measurement
         // then weighs them as usual.
-        shiftParticles(driftCorrected(now, *evidence).compose(from.inverse()));
+        rep->drift_shift = driftCorrected(now, *evidence).compose(from.inverse());
+        shiftParticles(rep->drift_shift);
         rep->drift_corrected = true;
         smoothed_agreement_ = 1;
       } else {

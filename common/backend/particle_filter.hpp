@@ -265,6 +265,7 @@ struct UpdateReport {
   Pose2 jump;
   double jump_mahalanobis_sq = 0;
   bool drift_corrected = false;
+  Pose2 drift_shift;       // ...by which the particles moved: p -> drift_shift (+) p (map frame)
   bool recovered = false;  // this measurement ended one
   bool cancelled = false;  // ...by agreeing with the pose before it (KidnapParams::cancel_count)
   bool suspect = false;    // the landmark is a known look-alike (KidnapParams::suspect_after)
@@ -351,6 +352,9 @@ class ParticleFilter {
   // after a long unobserved drift, which the kidnap test cannot tell from a
   // short carry (paper 6.2).
   bool robotWasMoved() const { return robot_was_moved_; }
+  // A robot known to have been moved relocalized no more than
+  // view_jump_window_s before t.
+  bool recentlyRelocalizedAfterAMove(int64_t t) const;
   // Global relocalization (e.g. a saved map and an unknown start pose):
   // all-dual until the measurements confirm a pose.
   void startKidnapped();
@@ -511,9 +515,6 @@ class ParticleFilter {
   // Takes the landmark's measurements out of the run of inconsistent ones
   // (a newer one of it was neither consistent nor inconsistent).
   void dropFromLowRun(uint32_t slot);
-  // A robot known to have been moved relocalized no more than
-  // view_jump_window_s before t.
-  bool recentlyRelocalizedAfterAMove(int64_t t) const;
   // The particles' covariance scaled by drift_sigma_scale^2: their side of
   // the drift covariance (KidnapParams).
   Eigen::Matrix3d driftSpread(const PoseEstimate& from) const;

@@ -249,6 +249,29 @@ bool PoseGraph::removeLandmark(int64_t landmark_id) {
   return true;
 }
 
+std::optional<size_t> PoseGraph::moveSegment(int64_t utime, const Pose2& shift) {
+  const int segment = segmentAt(utime);
+  if (segment == 0 && map_landmarks_ == 0) return std::nullopt;
+  for (const auto& [key, id] : by_time_) {
+    if (key.first != segment) continue;
+    Node& n = nodes_[static_cast<size_t>(id)];
+    setPose(n.x, shift.compose(Pose2{n.x[0], n.x[1], n.x[2]}));
+    n.guess = shift.compose(n.guess);
+  }
+  auto inSegment = [&](int node) {
+    return node >= 0 && nodes_[static_cast<size_t>(node)].segment == segment;
+  };
+  const size_t before = measurements_.size();
+  measurements_.erase(std::remove_if(measurements_.begin(), measurements_.end(),
+                                     [&](const Measurement& m) {
+                                       return inSegment(m.node) && !inSegment(m.creation_node);
+                                     }),
+                      measurements_.end());
+  const size_t removed = before - measurements_.size();
+  measurements_removed_ += static_cast<int64_t>(removed);
+  return removed;
+}
+
 void PoseGraph::addMapLandmark(int64_t landmark_id, const Pose2& pose) {
   if (!pose.isFinite())
     throw std::invalid_argument("pose graph: a map landmark's pose is not finite");

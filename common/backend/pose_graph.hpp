@@ -142,6 +142,15 @@ class PoseGraph {
   // adds nothing) for an unknown landmark or beyond max_measurement_distance_m.
   bool addMeasurement(int64_t landmark_id, int node, const Pose2& y);
 
+  // The odometry segment holding `utime` was placed wrong: it began at a
+  // relocalization that later evidence corrected (Backend). Its nodes and
+  // its prior move by `shift` (map frame: x -> shift (+) x), and the
+  // measurements that tied it to landmarks made outside it (those that had
+  // put it there) leave; its own landmarks move with it. Returns the number
+  // of measurements removed, or nullopt (nothing changed) if the segment
+  // holds the graph's fixed origin.
+  std::optional<size_t> moveSegment(int64_t utime, const Pose2& shift);
+
   // Prunes (bounded size, above), then solves.
   PoseGraphSolveSummary solve();
   // The pruning alone (solve() does it first). Node ids of removed nodes are
@@ -157,6 +166,9 @@ class PoseGraph {
 
   Pose2 nodePose(int node) const;
   int64_t nodeTime(int node) const { return nodes_.at(static_cast<size_t>(node)).utime; }
+  // The odometry segment of a node, and the one holding a time.
+  int nodeSegment(int node) const { return nodes_.at(static_cast<size_t>(node)).segment; }
+  int segmentAt(int64_t utime) const;
   const OdometryAt& nodeOdometry(int node) const {
     return nodes_.at(static_cast<size_t>(node)).odometry;
   }
@@ -219,7 +231,6 @@ class PoseGraph {
   std::vector<Node> nodes_;  // by id; removed ones (alive false) are reused
   std::vector<int> free_ids_;
   int64_t nodes_removed_ = 0, measurements_removed_ = 0;
-  int segmentAt(int64_t utime) const;
 
   std::map<std::pair<int, int64_t>, int> by_time_;  // (segment, utime) -> node
   std::vector<int64_t> segment_start_{

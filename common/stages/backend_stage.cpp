@@ -851,6 +851,7 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     report.add("graph_solves", static_cast<double>(c.graph_solves), "count");
     report.add("graph_solve_failures", static_cast<double>(c.graph_solve_failures), "count");
     report.add("graph_odometry_breaks", static_cast<double>(c.graph_odometry_breaks), "count");
+    report.add("graph_segments_moved", static_cast<double>(c.graph_segments_moved), "count");
     report.add("graph_solve_ms", c.graph_last_solve_ms, "ms");
     report.add("graph_solve_waits", static_cast<double>(c.graph_solve_waits), "count");
     report.add("graph_solve_wait_ms", c.graph_solve_wait_ms, "ms");
