@@ -826,8 +826,14 @@ bool ParticleFilter::withinWindow(int64_t since, int64_t t, double window_s) {
 }
 
 bool ParticleFilter::justAfterViewJump(int64_t t) const {
-  return t >= view_jump_utime_ &&
-         withinWindow(view_jump_utime_, t, params_.kidnap.moved_evidence_s);
+  if (t < view_jump_utime_ || params_.kidnap.moved_evidence_s <= 0) return false;
+  // Carried into a part not mapped yet, the robot meets its first mapped
+  // landmark only when it gets back to one (generated home 1265: 9 s after
+  // the jump); until one placed before the jump has agreed, that is as
+  // "just after" the move as the jump itself.
+  return withinWindow(view_jump_utime_, t, params_.kidnap.moved_evidence_s) ||
+         (!jump_checked_ &&
+          withinWindow(view_jump_utime_, t, params_.kidnap.unchecked_jump_window_s));
 }
 
 void ParticleFilter::noteInconsistent(const Observation& obs, uint32_t slot) {

@@ -195,7 +195,9 @@ struct KidnapParams {
   // must agree on that keep one landmark's stream from declaring anything;
   // (b) a run that began within it needs no detect_min_span_s, which is
   // there for a repeated pattern met while driving, not for a robot seen to
-  // be moved.
+  // be moved. So is the first mapped landmark met after a jump still
+  // unchecked (unchecked_jump_window_s: carried into a part not mapped yet),
+  // however long after the jump.
   double moved_evidence_s = 0.0;
 };
 
@@ -506,7 +508,8 @@ class ParticleFilter {
   // recentViewJump, or no more than unchecked_jump_window_s before t with
   // no landmark placed before it consistent since.
   bool unresolvedViewJump(int64_t t) const;
-  // t is no more than moved_evidence_s after the latest view jump.
+  // t is no more than moved_evidence_s after the latest view jump, or the
+  // jump is still unchecked (unresolvedViewJump's second case).
   bool justAfterViewJump(int64_t t) const;
   // An inconsistent measurement of a landmark that is not a look-alike: in
   // the run that may declare a kidnapping, and among those a relocalization

@@ -136,7 +136,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("moved_evidence_s", &K::moved_evidence_s, InRange{0, 600}, "s",
            "for this long after a front-end's view jumped, inconsistent measurements the "
            "back-end thins (`landmark_min_interval_s`) still count toward a kidnapping, and a "
-           "run begun in it needs no `detect_min_span_s`; 0: off");
+           "run begun in it needs no `detect_min_span_s`; so also while no landmark placed "
+           "before the jump has agreed since (`unchecked_jump_window_s`); 0: off");
   return t;
 }
 

@@ -1639,46 +1639,57 @@ TEST(ParticleFilter, FalseViewJumpsInARowDoNotMakeTheWholeMapUntrustworthy) {
   EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.15);
 }
 
-TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
-  // Landmarks 1-3 are mapped from the start pose at t = 0; at 1 s the robot
-  // is carried 3 m back and a front-end sees its view jump. From 1.1 s the
-  // cameras measure the three landmarks in turn, 10 a second, and the caller
-  // thins them as the back-end does: one per landmark per 2 s is used, the
-  // others are only noted (noteUnused). Within moved_evidence_s of the jump
-  // the noted inconsistent ones join the kidnap test's run and the run needs
-  // no detect_min_span_s: the carry is declared with the first measurement
-  // used (2 s), not 2 s of used measurements later (4 s). Either way the
-  // filter relocalizes where the robot was carried to.
+namespace {
+
+// Landmarks 1-3 are mapped from the start pose at t = 0; at 1 s the robot
+// is carried 3 m back (a front-end sees its view jump if `jumped`). From
+// `first_seen` the cameras measure the three landmarks in turn, 10 a
+// second, and the caller thins them as the back-end does: one per landmark
+// per 2 s is used, the others are only noted (noteUnused). Returns when the
+// carry was declared (-1: never) and where the filter relocalized.
+double carryDetectedAt(bool jumped, double moved_evidence_s, double unchecked_jump_window_s,
+                       double first_seen, Pose2* relocalized) {
   const auto at = observationAt;
   const Pose2 carried_to{-3, 0, 0};
   const Pose2 landmark3{0, 1, 0};
-  auto detected_at = [&](bool jumped, double moved_evidence_s, Pose2* relocalized) {
-    FilterParams p = homeParams(200);
-    p.kidnap.view_jump_window_s = 20.0;
-    p.kidnap.moved_evidence_s = moved_evidence_s;
-    auto pf = filterWithThreeLandmarks(p, landmark3.between(Pose2{}));
-    if (jumped) pf->noteViewJump(at(0, {}, 1.0).utime);
-    std::map<int64_t, double> last_used = {{1, 0.0}, {2, 0.0}, {3, 0.0}};
-    double detected = -1;
-    for (int k = 0; k < 100; ++k) {
-      const double t = 1.1 + 0.1 * k;
-      const int64_t id = 1 + k % 3;
-      const Observation obs = id == 3 ? at(3, predictMeasurement(carried_to, landmark3), t)
-                                      : seenFromThreeMetresBack(id == 2, t);
-      if (t - last_used[id] < 2.0 - 1e-9) {
-        pf->noteUnused(obs);
-        continue;
-      }
-      last_used[id] = t;
-      const UpdateReport r = pf->update(obs);
-      if (r.kidnap_detected && detected < 0) detected = t;
-      if (detected >= 0 && !pf->kidnapped()) break;
+  FilterParams p = homeParams(200);
+  p.kidnap.view_jump_window_s = 20.0;
+  p.kidnap.unchecked_jump_window_s = unchecked_jump_window_s;
+  p.kidnap.moved_evidence_s = moved_evidence_s;
+  auto pf = filterWithThreeLandmarks(p, landmark3.between(Pose2{}));
+  if (jumped) pf->noteViewJump(at(0, {}, 1.0).utime);
+  // (As if each had been used 1.1 s before: the first used at first_seen + 0.9 s.)
+  const double used = first_seen - 1.1;
+  std::map<int64_t, double> last_used = {{1, used}, {2, used}, {3, used}};
+  double detected = -1;
+  for (int k = 0; k < 100; ++k) {
+    const double t = first_seen + 0.1 * k;
+    const int64_t id = 1 + k % 3;
+    const Observation obs = id == 3 ? at(3, predictMeasurement(carried_to, landmark3), t)
+                                    : seenFromThreeMetresBack(id == 2, t);
+    if (t - last_used[id] < 2.0 - 1e-9) {
+      pf->noteUnused(obs);
+      continue;
     }
-    *relocalized = pf->estimate().mean;
-    return detected;
-  };
+    last_used[id] = t;
+    const UpdateReport r = pf->update(obs);
+    if (r.kidnap_detected && detected < 0) detected = t;
+    if (detected >= 0 && !pf->kidnapped()) break;
+  }
+  *relocalized = pf->estimate().mean;
+  return detected;
+}
+
+}  // namespace
+
+TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
+  // Within moved_evidence_s of the jump the noted inconsistent measurements
+  // join the kidnap test's run and the run needs no detect_min_span_s: the
+  // carry is declared with the first measurement used (2 s), not 2 s of
+  // used measurements later (4 s). Either way the filter relocalizes where
+  // the robot was carried to.
   Pose2 relocalized;
-  const double with_jump = detected_at(true, 5.0, &relocalized);
+  const double with_jump = carryDetectedAt(true, 5.0, 0.0, 1.1, &relocalized);
   EXPECT_GE(with_jump, 2.0);
   EXPECT_LT(with_jump, 2.5);
   EXPECT_NEAR(relocalized.x, -3.0, 0.15);
@@ -1687,10 +1698,28 @@ TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) 
   // The controls: without the jump, or with moved_evidence_s off, the run
   // is made of used measurements only and must last 2 s.
   for (const auto& [jumped, window] : {std::pair{false, 5.0}, std::pair{true, 0.0}}) {
-    const double later = detected_at(jumped, window, &relocalized);
+    const double later = carryDetectedAt(jumped, window, 0.0, 1.1, &relocalized);
     EXPECT_GE(later, 3.9) << "jumped " << jumped << " window " << window;
     EXPECT_NEAR(relocalized.x, -3.0, 0.15);
   }
+}
+
+TEST(ParticleFilter, CarriedWhereNothingIsMappedTheFirstMappedLandmarksDeclareItAsSoon) {
+  // The same carry, but the robot sees no mapped landmark until 9.1 s, 8 s
+  // after the jump and beyond moved_evidence_s (generated home 1265: 9 s).
+  // No landmark placed before the jump has agreed since, so the jump is
+  // still unchecked (unchecked_jump_window_s) and those first measurements
+  // declare the carry as soon as they would have right after the jump.
+  Pose2 relocalized;
+  const double unchecked = carryDetectedAt(true, 5.0, 60.0, 9.1, &relocalized);
+  EXPECT_GE(unchecked, 10.0);
+  EXPECT_LT(unchecked, 10.5);
+  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
+  EXPECT_NEAR(relocalized.y, 0.0, 0.15);
+  // The control: with the unchecked window off, moved_evidence_s is over.
+  const double later = carryDetectedAt(true, 5.0, 0.0, 9.1, &relocalized);
+  EXPECT_GE(later, 11.9);
+  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
 }
 
 TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotCancelTheKidnapping) {
