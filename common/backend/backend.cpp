@@ -164,7 +164,7 @@ Pose2 Backend::estimateAt(const Pose2& then) const {
   return filter_.estimate().mean.compose(d.inverse());
 }
 
-std::optional<RelocalizationJoin> Backend::joinOrBreak(bool moved) {
+std::optional<RelocalizationJoin> Backend::joinOrBreakAfterKidnap() {
   // Was it a kidnapping? The filter cannot tell one from a loop closure
   // after a long drift (paper 6.2); a view jump can (robotWasMoved), and so
   // can the size of the jump. If the robot was moved, or the pose it
@@ -192,7 +192,7 @@ std::optional<RelocalizationJoin> Backend::joinOrBreak(bool moved) {
   join.jump_mahalanobis_sq = join.jump_m * join.jump_m / (o.xy * o.xy) +
                              join.jump_rad * join.jump_rad / (o.theta * o.theta);
   const double gate_d2 = params_.map_correction.kidnap_jump_mahalanobis_sq;
-  join.broken = moved || join.jump_m > params_.map_correction.kidnap_jump_m ||
+  join.broken = filter_.robotWasMoved() || join.jump_m > params_.map_correction.kidnap_jump_m ||
                 join.jump_rad > params_.map_correction.kidnap_jump_rad ||
                 (gate_d2 > 0 && join.jump_mahalanobis_sq > gate_d2);
   if (join.broken) {
@@ -236,18 +236,15 @@ void Backend::moveRelocalizedSegment(int64_t utime, const Pose2& shift) {
   // So the segment moves with the particles and drops those measurements;
   // a solve begun before is stale.
   if (!graph_->moveSegment(utime, shift)) return;
-  dropSolveInProgress();
+  if (solving_.valid()) {
+    solving_.wait();
+    solving_ = {};
+    solving_graph_.reset();
+  }
   if (newest_graph_node_ >= 0 &&
       graph_->nodeSegment(newest_graph_node_) == graph_->segmentAt(utime))
     newest_graph_node_filter_ = shift.compose(newest_graph_node_filter_);
   ++counters_.graph_segments_moved;
-}
-
-void Backend::dropSolveInProgress() {
-  if (!solving_.valid()) return;
-  solving_.wait();
-  solving_ = {};
-  solving_graph_.reset();
 }
 
 void Backend::loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmarks) {
@@ -475,23 +472,8 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
     graph_last_used_.erase(m.landmark_id);
     landmark_drift_.erase(m.landmark_id);
   }
-  if (u.drift_corrected && graph_) {
-    if (filter_.recentlyRelocalizedAfterAMove(m.utime)) {
-      moveRelocalizedSegment(m.utime, u.drift_shift);
-    } else {
-      // A drift correction is a small relocalization, and may be a wheel
-      // slip's (generated home 1253: 0.3 m at 108 s, in view of landmarks
-      // mapped a few metres before). Joined across a slip, the graph keeps
-      // the slipped odometry edge and its next solve puts the particles
-      // back; four corrections in 25 s were undone that way, the error
-      // growing to 0.69 m.
-      result.join = joinOrBreak(false);
-      if (result.join) {
-        result.join->drift = true;
-        if (result.join->broken) dropSolveInProgress();
-      }
-    }
-  }
+  if (u.drift_corrected && graph_ && filter_.recentlyRelocalizedAfterAMove(m.utime))
+    moveRelocalizedSegment(m.utime, u.drift_shift);
   if (u.kidnap_detected) deferred_.clear();
   if (u.deferred) deferred_[m.landmark_id] = m;
   if (calibration_ && u.kidnap_detected) calibration_->breakOdometry();
@@ -504,7 +486,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   if (calibration_ && consistent && !u.suspect) calibrate(m, *then_odometry);
   if (u.recovered) mapDeferredLandmarks();
   if (graph_) {
-    if (u.recovered) result.join = joinOrBreak(filter_.robotWasMoved());
+    if (u.recovered) result.join = joinOrBreakAfterKidnap();
     if (!filter_.kidnapped()) {
       addToGraph(m, *then_odometry,
                  u.kind == UpdateKind::kInitialized ||

@@ -136,10 +136,9 @@ enum class MeasurementUse {
 constexpr int kNumMeasurementUse = 8;
 const char* toString(MeasurementUse u);
 
-// What map correction made of a relocalization (Backend::joinOrBreak).
+// What map correction made of a relocalization (Backend::joinOrBreakAfterKidnap).
 struct RelocalizationJoin {
   bool broken = false;  // the graph's odometry chain was broken there (the robot was moved)
-  bool drift = false;   // a drift correction's, not a kidnapping's
   double jump_m = 0;    // the relocalized pose against the odometry's from the graph's newest node
   double jump_rad = 0;
   double span_m = 0;  // the robot's drift span then
@@ -246,12 +245,7 @@ class Backend {
   // newest node it had: `solved_at` (that node's pose in the solution, or
   // the graph's) against the filter's estimate there when the solve began.
   void applyCorrection(const Pose2& solved_at, const Pose2& filter_at);
-  // At a relocalization (after a kidnapping, or a drift correction: a
-  // small one), whether the graph's odometry chain holds across it; breaks
-  // it if not. `moved`: the robot is known to have been moved.
-  std::optional<RelocalizationJoin> joinOrBreak(bool moved);
-  // A solve begun before the graph changed under it is not taken.
-  void dropSolveInProgress();
+  std::optional<RelocalizationJoin> joinOrBreakAfterKidnap();
   // At a relocalization: the landmarks first seen while kidnapped, from
   // their newest measurement moved to now by the odometry since.
   void mapDeferredLandmarks();

@@ -659,7 +659,7 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
                   " (landmark ", msg.landmark_id, ", agreement ", r.update.agreement, ")");
       }
       if (r.join) {
-        log::info("map correction", r.join->drift ? " at a drift correction: " : ": ",
+        log::info("map correction: ",
                   r.join->broken ? "the robot was moved, the odometry chain is broken"
                                  : "a loop closure, the odometry chain is kept",
                   " (jump ", r.join->jump_m, " m, ", radToDeg(r.join->jump_rad),
