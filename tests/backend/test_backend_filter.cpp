@@ -1680,6 +1680,15 @@ double carryDetectedAt(bool jumped, double moved_evidence_s, double unchecked_ju
   return detected;
 }
 
+// Declared in [from, before) and relocalized where the robot was carried to.
+void expectDeclaredAndRelocalized(double detected, double from, double before,
+                                  const Pose2& relocalized) {
+  EXPECT_GE(detected, from);
+  EXPECT_LT(detected, before);
+  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
+  EXPECT_NEAR(relocalized.y, 0.0, 0.15);
+}
+
 }  // namespace
 
 TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) {
@@ -1689,11 +1698,8 @@ TEST(ParticleFilter, RightAfterAViewJumpThinnedMeasurementsDeclareACarrySooner) 
   // used measurements later (4 s). Either way the filter relocalizes where
   // the robot was carried to.
   Pose2 relocalized;
-  const double with_jump = carryDetectedAt(true, 5.0, 0.0, 1.1, &relocalized);
-  EXPECT_GE(with_jump, 2.0);
-  EXPECT_LT(with_jump, 2.5);
-  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
-  EXPECT_NEAR(relocalized.y, 0.0, 0.15);
+  expectDeclaredAndRelocalized(carryDetectedAt(true, 5.0, 0.0, 1.1, &relocalized), 2.0, 2.5,
+                               relocalized);
 
   // The controls: without the jump, or with moved_evidence_s off, the run
   // is made of used measurements only and must last 2 s.
@@ -1711,11 +1717,8 @@ TEST(ParticleFilter, CarriedWhereNothingIsMappedTheFirstMappedLandmarksDeclareIt
   // still unchecked (unchecked_jump_window_s) and those first measurements
   // declare the carry as soon as they would have right after the jump.
   Pose2 relocalized;
-  const double unchecked = carryDetectedAt(true, 5.0, 60.0, 9.1, &relocalized);
-  EXPECT_GE(unchecked, 10.0);
-  EXPECT_LT(unchecked, 10.5);
-  EXPECT_NEAR(relocalized.x, -3.0, 0.15);
-  EXPECT_NEAR(relocalized.y, 0.0, 0.15);
+  expectDeclaredAndRelocalized(carryDetectedAt(true, 5.0, 60.0, 9.1, &relocalized), 10.0, 10.5,
+                               relocalized);
   // The control: with the unchecked window off, moved_evidence_s is over.
   const double later = carryDetectedAt(true, 5.0, 0.0, 9.1, &relocalized);
   EXPECT_GE(later, 11.9);
