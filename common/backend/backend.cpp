@@ -235,7 +235,7 @@ void Backend::moveRelocalizedSegment(int64_t utime, const Pose2& shift) {
   // (applyCorrection), twice in 1239, until a false kidnapping 21 s later.
   // So the segment moves with the particles and drops those measurements;
   // a solve begun before is stale.
-  if (!graph_->moveSegment(utime, shift)) return;
+  if (!graph_->moveSegment(utime, shift).has_value()) return;  // the fixed origin's segment
   if (solving_.valid()) {
     solving_.wait();
     solving_ = {};
