@@ -43,6 +43,31 @@ struct RelativePoseCost {
   double inv_xy_, inv_theta_;
 };
 
+// The same with a's frame first moved by an offset (the landmark's frame in
+// its creation node's, PoseGraphParams::landmark_frame_sigma_*):
+// e = (a (+) o (+) z)^-1 (+) b.
+struct OffsetRelativePoseCost {
+  OffsetRelativePoseCost(const Pose2& z, double sigma_xy, double sigma_theta)
+      : relative_(z, sigma_xy, sigma_theta) {}
+
+  template <typename T>
+  bool operator()(const T* const a, const T* const o, const T* const b, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T ca = cos(a[2]), sa = sin(a[2]);
+    const T frame[3] = {a[0] + ca * o[0] - sa * o[1], a[1] + sa * o[0] + ca * o[1], a[2] + o[2]};
+    return relative_(frame, b, residual);
+  }
+
+  static ceres::CostFunction* create(const Pose2& z, double sigma_xy, double sigma_theta) {
+    return new ceres::AutoDiffCostFunction<OffsetRelativePoseCost, 3, 3, 3, 3>(
+        new OffsetRelativePoseCost(z, sigma_xy, sigma_theta));
+  }
+
+ private:
+  RelativePoseCost relative_;
+};
+
 // A pose prior: e = x - p (theta wrapped), whitened.
 struct PosePriorCost {
   PosePriorCost(const Pose2& p, double sigma_xy, double sigma_theta)
@@ -90,6 +115,10 @@ void PoseGraphParams::validate() const {
   if (!(measurement_sigma_theta_rad > 0)) bad("measurement_sigma_theta_rad");
   if (!(measurement_sigma_theta_rad_per_m >= 0)) bad("measurement_sigma_theta_rad_per_m");
   if (!(max_measurement_distance_m > 0)) bad("max_measurement_distance_m");
+  if (!(landmark_frame_sigma_xy_m >= 0)) bad("landmark_frame_sigma_xy_m");
+  if (!(landmark_frame_sigma_theta_rad >= 0)) bad("landmark_frame_sigma_theta_rad");
+  if ((landmark_frame_sigma_xy_m > 0) != (landmark_frame_sigma_theta_rad > 0))
+    bad("landmark_frame_sigma_xy_m and landmark_frame_sigma_theta_rad (both 0 or both > 0)");
   if (!(robust_sigmas > 0)) bad("robust_sigmas");
   if (max_iterations < 1) bad("max_iterations");
   if (!(odometry_gate_mahalanobis_sq >= 0)) bad("odometry_gate_mahalanobis_sq");
@@ -379,11 +408,21 @@ PoseGraphSolveSummary PoseGraph::solve() {
     }
     prev = &n;
   }
+  const bool offsets = framesHaveOffsets();
   for (const Measurement& m : measurements_) {
     if (!trusted(m.landmark_id)) continue;
     double* a = nullptr;
+    double* offset = nullptr;
     if (m.creation_node >= 0) {
       a = nodes_[static_cast<size_t>(m.creation_node)].x;
+      if (offsets) {
+        offset = landmarks_.at(m.landmark_id).frame_offset;
+        if (!problem.HasParameterBlock(offset))
+          problem.AddResidualBlock(
+              new ceres::AutoDiffCostFunction<PosePriorCost, 3, 3>(new PosePriorCost(
+                  Pose2{}, p.landmark_frame_sigma_xy_m, p.landmark_frame_sigma_theta_rad)),
+              nullptr, offset);
+      }
     } else {
       a = landmarks_.at(m.landmark_id).map_x;
       problem.AddParameterBlock(a, 3);
@@ -400,7 +439,12 @@ PoseGraphSolveSummary PoseGraph::solve() {
     } else {
       loss = new ceres::HuberLoss(p.robust_sigmas);
     }
-    problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a, b.x);
+    if (offset != nullptr) {
+      problem.AddResidualBlock(OffsetRelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a,
+                               offset, b.x);
+    } else {
+      problem.AddResidualBlock(RelativePoseCost::create(m.y, sigma_xy, sigma_theta), loss, a, b.x);
+    }
   }
 
   ceres::Solver::Options options;
@@ -425,6 +469,11 @@ PoseGraphSolveSummary PoseGraph::solve() {
 }
 
 void PoseGraph::adoptSolution(const PoseGraph& solved) {
+  for (auto& [id, l] : landmarks_) {
+    const auto it = solved.landmarks_.find(id);
+    if (it != solved.landmarks_.end() && it->second.creation_node == l.creation_node)
+      std::copy(it->second.frame_offset, it->second.frame_offset + 3, l.frame_offset);
+  }
   const Node* prev = nullptr;
   for (const auto& [key, id] : by_time_) {
     Node& n = nodes_[static_cast<size_t>(id)];
@@ -449,16 +498,23 @@ Pose2 PoseGraph::nodePose(int node) const {
 std::optional<Pose2> PoseGraph::landmarkPose(int64_t landmark_id) const {
   const auto it = landmarks_.find(landmark_id);
   if (it == landmarks_.end()) return std::nullopt;
-  const Landmark& l = it->second;
-  return l.creation_node >= 0 ? nodePose(l.creation_node)
-                              : Pose2{l.map_x[0], l.map_x[1], l.map_x[2]};
+  return landmarkFrame(it->second);
+}
+
+bool PoseGraph::framesHaveOffsets() const { return params_.landmark_frame_sigma_xy_m > 0; }
+
+Pose2 PoseGraph::landmarkFrame(const Landmark& l) const {
+  if (l.creation_node < 0) return {l.map_x[0], l.map_x[1], l.map_x[2]};
+  const Pose2 creation = nodePose(l.creation_node);
+  if (!framesHaveOffsets()) return creation;
+  return creation.compose({l.frame_offset[0], l.frame_offset[1], l.frame_offset[2]});
 }
 
 std::vector<std::pair<int64_t, Pose2>> PoseGraph::landmarkPoses() const {
   std::vector<std::pair<int64_t, Pose2>> out;
   out.reserve(landmarks_.size());
   for (const auto& [id, l] : landmarks_)
-    if (l.creation_node >= 0) out.emplace_back(id, nodePose(l.creation_node));
+    if (l.creation_node >= 0) out.emplace_back(id, landmarkFrame(l));
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return out;
 }

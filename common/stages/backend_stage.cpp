@@ -214,6 +214,15 @@ ParamTable<backend::MapCorrectionParams> mapCorrectionTable() {
           "max_measurement_distance_m",
           [](auto& m) -> auto& { return m.graph.max_measurement_distance_m; }, InRange{1e-3, 100},
           "m", "farther measurements stay out of the graph")
+      .add(
+          "landmark_frame_sigma_xy_m",
+          [](auto& m) -> auto& { return m.graph.landmark_frame_sigma_xy_m; }, InRange{0, 10}, "m",
+          "a landmark's frame is its creation pose moved by an offset with this prior (its "
+          "structure's own error, shared by all its measurements), x and y; 0 (with θ): none")
+      .degrees(
+          "landmark_frame_sigma_theta_deg",
+          [](auto& m) -> auto& { return m.graph.landmark_frame_sigma_theta_rad; }, InRange{0, 90},
+          "...and θ")
       .choice(
           "robust_loss", [](auto& m) -> auto& { return m.graph.robust_loss; },
           std::vector<std::pair<std::string, Loss>>{{"huber", Loss::kHuber},

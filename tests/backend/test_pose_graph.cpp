@@ -437,6 +437,47 @@ TEST(PoseGraph, ALandmarkThatDisagreesWithTheOdometryNeitherBendsThePathNorStays
   EXPECT_TRUE(graph.trusted(1));
 }
 
+TEST(PoseGraph, ALandmarksOwnStructureErrorBendsThePathNoMoreThanItsFramePriorAllows) {
+  // A straight 2.6 m drive with exact odometry; one landmark made at 0.2 m
+  // whose structure was built 4 degrees and 3 cm off (so every one of its
+  // twelve measurements is, consistently: generated homes 1271, 1278). As
+  // independent edges they outweigh the odometry and turn the path; with
+  // the landmark's frame free under its prior (landmark_frame_sigma_*) the
+  // frame takes a share of the error and the path keeps most of the
+  // odometry's heading. The gate is off: this is the measurement model.
+  const Pose2 structure_error{0.0, 0.03, 4 * kDeg};
+  auto solve = [&](double frame_sigma_xy_m, double frame_sigma_theta_rad) {
+    PoseGraphParams p;  // the measurement model's defaults
+    p.landmark_frame_sigma_xy_m = frame_sigma_xy_m;
+    p.landmark_frame_sigma_theta_rad = frame_sigma_theta_rad;
+    p.max_measurement_distance_m = 3.0;
+    auto graph = std::make_unique<PoseGraph>(p);
+    graph->addNode(0, {Pose2{}, 0, 0}, Pose2{});
+    const Pose2 creation{0.2, 0, 0};
+    graph->addLandmark(1, graph->addNode(1'000'000, {creation, creation.x, 0}, creation));
+    const Pose2 frame = creation.compose(structure_error);
+    for (int k = 1; k <= 12; ++k) {
+      const Pose2 odom{0.2 + 0.2 * k, 0, 0};
+      const int n = graph->addNode(1'000'000 + 500'000 * k, {odom, odom.x, 0}, odom);
+      EXPECT_TRUE(graph->addMeasurement(1, n, frame.between(odom)));
+    }
+    EXPECT_TRUE(graph->solve().solved);
+    double worst_heading = 0;
+    for (size_t n = 0; n < graph->numNodes(); ++n)
+      worst_heading = std::max(worst_heading, std::abs(graph->nodePose(static_cast<int>(n)).theta));
+    return std::make_pair(worst_heading, graph->landmarkPose(1)->theta);
+  };
+  const auto [independent_heading, independent_frame] = solve(0, 0);
+  const auto [with_frame_heading, frame_heading] = solve(0.03, 1.5 * kDeg);
+  // Measured 2026-12-07: the path turned by the whole 4.0 degrees as
+  // independent edges, by 1.1 with the frame free, whose heading took 2.9.
+  EXPECT_GT(independent_heading, 3.5 * kDeg);
+  EXPECT_NEAR(independent_frame, 0.0, 1e-6);  // the creation node's heading
+  EXPECT_LT(with_frame_heading, 1.6 * kDeg);
+  EXPECT_GT(frame_heading, 2.0 * kDeg);
+  EXPECT_LT(frame_heading, 4.0 * kDeg);
+}
+
 TEST(PoseGraph, RefusesMeasurementsItCannotUse) {
   PoseGraph graph(syntheticGraphParams());
   const int a = graph.addNode(0, {Pose2{}, 0, 0}, Pose2{});
