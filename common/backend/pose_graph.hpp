@@ -69,7 +69,7 @@ struct PoseGraphParams {
   double max_measurement_distance_m = 1.5;
   // A landmark's 3-D structure, triangulated from three views a few
   // decimetres apart, has an error of its own that every measurement of it
-  // shares: a badly built one is measured consistently 3-7 degrees off,
+  // shares: a badly built one is measured consistently 3-11 degrees off,
   // tens of times (generated homes 1271, 1278). Each landmark's frame is its
   // creation pose moved by an offset with this prior, so its measurements,
   // however many, tie the path no tighter than the landmark was built.
