@@ -469,10 +469,12 @@ PoseGraphSolveSummary PoseGraph::solve() {
 }
 
 void PoseGraph::adoptSolution(const PoseGraph& solved) {
-  for (auto& [id, l] : landmarks_) {
-    const auto it = solved.landmarks_.find(id);
-    if (it != solved.landmarks_.end() && it->second.creation_node == l.creation_node)
-      std::copy(it->second.frame_offset, it->second.frame_offset + 3, l.frame_offset);
+  if (framesHaveOffsets()) {  // no per-landmark work on the update path when off
+    for (auto& [id, l] : landmarks_) {
+      const auto it = solved.landmarks_.find(id);
+      if (it != solved.landmarks_.end() && it->second.creation_node == l.creation_node)
+        std::copy(it->second.frame_offset, it->second.frame_offset + 3, l.frame_offset);
+    }
   }
   const Node* prev = nullptr;
   for (const auto& [key, id] : by_time_) {
