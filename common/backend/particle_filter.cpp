@@ -953,9 +953,12 @@ std::optional<ParticleFilter::Evidence> ParticleFilter::kidnapEvidence(
   // implied poses far apart, beyond kWanderingClusterScale x the cluster's
   // size) is a pattern repeated across the home, and gives no evidence
   // (tuning home 36: each landmark of one wallpaper put the robot 2-4 m
-  // away, somewhere else every few seconds; two false kidnappings). Not within
-  // view_jump_window_s of a view jump: a robot being carried wanders too.
-  const bool skip_wandering = !recentViewJump(low_run_.back().utime);
+  // away, somewhere else every few seconds; two false kidnappings). Not while
+  // a view jump is unresolved: a robot being carried wanders too, and one
+  // carried where nothing is mapped meets its first mapped landmarks long
+  // after the jump, among look-alikes (generated home 1282: 34 s after it,
+  // the true landmarks alternating with their look-alikes' places).
+  const bool skip_wandering = !unresolvedViewJump(low_run_.back().utime);
   // Outvoted: a busy repeated pattern, not a move (KidnapParams::detect_dissent_ratio).
   // Not near a view jump (as above), nor soon after a moved robot's
   // relocalization: the particles then stand on a few landmarks' word, and

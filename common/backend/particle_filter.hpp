@@ -181,9 +181,10 @@ struct KidnapParams {
   // landmarks it makes there until it comes back to mapped places (generated
   // home 1190: 26 s). While no landmark placed before a view jump has agreed
   // with the particles since it, the landmarks placed since go on not ending
-  // runs of inconsistent measurements, and a kidnapping declared is known to
-  // be real, for up to this long after the jump (at least
-  // view_jump_window_s). 0: view_jump_window_s alone.
+  // runs of inconsistent measurements, landmarks recognised at more than one
+  // place still count as kidnap evidence (kidnapEvidence), and a kidnapping
+  // declared is known to be real, for up to this long after the jump (at
+  // least view_jump_window_s). 0: view_jump_window_s alone.
   double unchecked_jump_window_s = 0.0;
   // Right after a view jump the robot has most likely been moved, and the
   // sooner the kidnapping is declared the less time the estimate spends at

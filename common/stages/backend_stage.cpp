@@ -132,7 +132,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
       .add("unchecked_jump_window_s", &K::unchecked_jump_window_s, InRange{0, 600}, "s",
            "while no landmark placed before a view jump has agreed with the particles since it "
            "(the robot carried into a part of the home it has not mapped), the jump's window "
-           "lasts up to this long; 0: view_jump_window_s alone")
+           "lasts up to this long, and landmarks recognised at more than one place meanwhile "
+           "still count toward a kidnapping; 0: view_jump_window_s alone")
       .add("moved_evidence_s", &K::moved_evidence_s, InRange{0, 600}, "s",
            "for this long after a front-end's view jumped, inconsistent measurements the "
            "back-end thins (`landmark_min_interval_s`) still count toward a kidnapping, and a "
