@@ -11,6 +11,13 @@ namespace {
 // A measurement at most this fraction of the particles gates out counts as
 // consistent for the odometry calibration.
 constexpr double kConsistentOutlierFraction = 0.5;
+// noteViewJump: a camera heard from this recently is one of the robot's
+// (a camera that has stopped is not waited for)...
+constexpr double kActiveCameraS = 10.0;
+// ...and jumps of every camera this close in time are one move (cameras
+// need not be triggered together: a few frames at 10-30 Hz).
+constexpr double kSimultaneousJumpS = 0.5;
+constexpr size_t kMaxCameras = 16;
 }  // namespace
 
 const char* toString(MeasurementUse u) {
@@ -256,6 +263,47 @@ void Backend::loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmark
     if (filter_.slotOf(l.id) >= 0) graph_->addMapLandmark(l.id, toPose(l.estimate.mean));
 }
 
+void Backend::noteCamera(const std::string& camera, int64_t utime) {
+  if (camera.empty()) return;
+  auto it = cameras_.find(camera);
+  if (it == cameras_.end()) {
+    if (cameras_.size() >= kMaxCameras) {
+      // Make room by the camera heard from longest ago (a stray name).
+      auto oldest = std::min_element(cameras_.begin(), cameras_.end(), [](auto& a, auto& b) {
+        return a.second.heard_utime < b.second.heard_utime;
+      });
+      cameras_.erase(oldest);
+    }
+    it = cameras_.emplace(camera, CameraActivity{}).first;
+  }
+  it->second.heard_utime = std::max(it->second.heard_utime, utime);
+}
+
+bool Backend::noteViewJump(const std::string& camera, int64_t utime) {
+  filter_.noteViewJump(utime);
+  noteCamera(camera, utime);
+  if (camera.empty()) return false;
+  CameraActivity& jumped = cameras_.at(camera);
+  jumped.jump_utime = std::max(jumped.jump_utime, utime);
+  if (!params_.filter.kidnap.declare_on_every_view_jump || filter_.kidnapped()) return false;
+  const auto active_us = static_cast<int64_t>(kActiveCameraS * 1e6);
+  const auto together_us = static_cast<int64_t>(kSimultaneousJumpS * 1e6);
+  int active = 0;
+  for (const auto& [name, c] : cameras_) {
+    if (utime - c.heard_utime > active_us) continue;  // stopped, or not one of this robot's
+    ++active;
+    if (c.jump_utime == std::numeric_limits<int64_t>::min() ||
+        std::abs(utime - c.jump_utime) > together_us)
+      return false;
+  }
+  if (active < 2 || !filter_.declareMoved(utime)) return false;
+  // As a kidnapping the measurements declare (addMeasurement).
+  ++counters_.kidnaps_detected;
+  deferred_.clear();
+  if (calibration_) calibration_->breakOdometry();
+  return true;
+}
+
 bool Backend::addLandmarkCreation(int64_t landmark_id, int64_t created_utime) {
   if (!graph_ || graph_->hasLandmark(landmark_id) || landmark_id < 0) return false;
   if (filter_.kidnapped()) {
@@ -405,6 +453,7 @@ MeasurementResult Backend::addMeasurement(const MeasurementInput& m) {
   };
   if (result.status != MeasurementStatus::kAccepted) return finish(MeasurementUse::kRejected);
   if (m.landmark_id < 0) return finish(MeasurementUse::kInvalidLandmark);
+  noteCamera(m.camera, m.utime);
   // (Not while kidnapped: as a solve on the update, a correction waits
   // for the filter to know where it is.)
   if (solving_.valid() && !filter_.kidnapped() && m.utime >= solving_result_utime_) takeSolution();

@@ -32,6 +32,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string>
 #include <unordered_map>
 
 #include "backend/odometry_calibration.hpp"
@@ -120,6 +121,7 @@ struct MeasurementInput {
   double proj_err_rms_px = 0;
   int num_points = 0;
   double slope = 0;
+  std::string camera;  // that took the image ("": unknown; Backend::noteViewJump)
 };
 
 // What happened to a measurement after the pre-filter.
@@ -211,6 +213,13 @@ class Backend {
   // keeps its landmarks where they are and ties the new path to them
   // (PoseGraph::addMapLandmark). Before the first odometry.
   void loadMap(const std::vector<ParticleFilter::KnownLandmark>& landmarks);
+  // A camera's view jumped at `utime` (ParticleFilter::noteViewJump). When
+  // every camera heard from (by a measurement or a jump) in the last
+  // kActiveCameraS has jumped within kSimultaneousJumpS of it, two cameras
+  // at least, and KidnapParams::declare_on_every_view_jump, the robot was
+  // moved: the kidnapping is declared (ParticleFilter::declareMoved) and
+  // this returns true.
+  bool noteViewJump(const std::string& camera, int64_t utime);
 
   const ParticleFilter& filter() const { return filter_; }
   ParticleFilter& filter() { return filter_; }
@@ -302,6 +311,14 @@ class Backend {
   std::unordered_map<int64_t, int64_t>
       last_used_;  // landmark id -> utime of its last used measurement
   BackendCounters counters_;
+  // Each camera's newest measurement or view jump, and its newest jump
+  // (noteViewJump); at most kMaxCameras (names come from the network).
+  struct CameraActivity {
+    int64_t heard_utime = 0;
+    int64_t jump_utime = std::numeric_limits<int64_t>::min();
+  };
+  std::map<std::string, CameraActivity> cameras_;
+  void noteCamera(const std::string& camera, int64_t utime);
 };
 
 }  // namespace vslam::backend

@@ -525,14 +525,17 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       // the window from the detection), one more: the evidence that declared
       // it and one new measurement are as strong as that, but a repeated
       // pattern can give a few landmarks that agree (tuning homes 23, 36).
+      // Declared on a view jump, no landmark declared it: one more since
+      // (generated home 1282: two look-alikes, 4.3 m off, agreed 36 s after
+      // the carry, and confirmed a relocalization there).
       std::vector<Implied> since_detection;
       for (const Implied& e : reloc_run_)
         if (e.utime > kidnap_declared_utime_) since_detection.push_back(e);
+      const int needed_since = kp.recover_landmarks + (declared_on_view_jump_ ? 1 : 0);
       *confirmed_by_cluster =
           may_confirm &&
           ((!since_detection.empty() &&
-            agreeingLandmarks(since_detection, since_detection.size() - 1) >=
-                kp.recover_landmarks) ||
+            agreeingLandmarks(since_detection, since_detection.size() - 1) >= needed_since) ||
            agreeingLandmarks(reloc_run_, reloc_run_.size() - 1) >= kp.recover_landmarks + 1);
     }
     if (agreement >= kp.recover_agreement) {
@@ -596,6 +599,7 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
       } else {
         held_ = from;  // published until the relocalization is confirmed
         kidnapped_ = true;
+        declared_on_view_jump_ = false;
         kidnap_evidence_slots_.clear();
         for (const Implied& l : low_run_)
           if (!isKidnapEvidence(l.slot)) kidnap_evidence_slots_.push_back(l.slot);
@@ -730,7 +734,7 @@ bool ParticleFilter::retest(uint32_t slot, const Observation& obs) {
   return false;
 }
 
-void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
+void ParticleFilter::chooseRetestCandidates(const std::optional<Pose2>& at) {
   const KidnapParams& kp = params_.kidnap;
   retest_candidates_.clear();
   if (kp.retest_margin_s < 0) return;
@@ -741,7 +745,7 @@ void ParticleFilter::chooseRetestCandidates(const Pose2& at) {
   constexpr int64_t kNever = std::numeric_limits<int64_t>::max();
   int64_t onset = kNever;
   for (const Implied& m : recent_inconsistent_)
-    if (agreesWith(m, at, 2.0)) onset = std::min(onset, m.utime);
+    if (at && agreesWith(m, *at, 2.0)) onset = std::min(onset, m.utime);
   recent_inconsistent_.clear();
   int64_t from = onset == kNever ? kNever : onset - static_cast<int64_t>(kp.retest_margin_s * 1e6);
   // A robot seen to be moved was moved at its view jumps' start: every
@@ -814,6 +818,31 @@ void ParticleFilter::noteViewJump(int64_t t) {
     moved_since_utime_ = std::min(moved_since_utime_, jumps_since_utime_);
     if (params_.kidnap.retest_margin_s >= 0) retestLandmarksPlacedSince(moved_since_utime_);
   }
+}
+
+bool ParticleFilter::declareMoved(int64_t t) {
+  if (kidnapped_ || params_.kidnap.view_jump_window_s <= 0) return false;
+  held_ = estimate().mean;  // published until the relocalization is confirmed
+  kidnapped_ = true;
+  declared_on_view_jump_ = true;
+  kidnap_declared_utime_ = t;
+  kidnap_evidence_slots_.clear();  // no landmark declared it
+  if (params_.kidnap.cancel_count > 0) {
+    before_kidnap_ = particles_;  // shares every map: O(particles)
+    before_kidnap_since_update_ = since_update_;
+    before_kidnap_agreeing_ = 0;
+  }
+  robot_was_moved_ = true;
+  moved_since_utime_ = jumps_since_utime_ == std::numeric_limits<int64_t>::min()
+                           ? t
+                           : std::min(jumps_since_utime_, t);
+  view_jump_utime_ = jumps_since_utime_ = std::numeric_limits<int64_t>::min();  // did their work
+  chooseRetestCandidates(std::nullopt);  // every landmark placed since the jump
+  low_run_.clear();
+  reloc_run_.clear();
+  recover_count_ = 0;
+  recover_landmarks_.clear();
+  return true;
 }
 
 bool ParticleFilter::withinViewJumpWindow(int64_t since, int64_t t) const {
@@ -1081,6 +1110,7 @@ void ParticleFilter::startAt(const Pose2& mean, const Eigen::Matrix3d& covarianc
 void ParticleFilter::startKidnapped() {
   held_ = estimate().mean;
   kidnapped_ = true;
+  declared_on_view_jump_ = false;
   kidnap_declared_utime_ = std::numeric_limits<int64_t>::min();  // no measurement declared it
   robot_was_moved_ = true;
   moved_since_utime_ = std::numeric_limits<int64_t>::max();  // no landmark placed from a wrong pose

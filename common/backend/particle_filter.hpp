@@ -200,6 +200,16 @@ struct KidnapParams {
   // unchecked (unchecked_jump_window_s: carried into a part not mapped yet),
   // however long after the jump.
   double moved_evidence_s = 0.0;
+  // A view jump seen by every camera at once (Backend::noteViewJump: two
+  // cameras at least) is the robot being moved, not a glitch of one view
+  // (motion blur, a plain wall): the kidnapping is declared then
+  // (declareMoved), not when landmarks show it. Carried where nothing is
+  // mapped, the robot otherwise went on at the old place, its estimate
+  // trusted, until it met mapped landmarks again (generated home 1282: for
+  // 37 s, 2-9 m off). Over generated homes 1260-1289 every jump of both
+  // cameras at once was a carry (15 of 15); of the one-camera jumps, two of
+  // three were not.
+  bool declare_on_every_view_jump = false;
 };
 
 struct FilterParams {
@@ -318,6 +328,16 @@ class ParticleFilter {
   double noteUnused(const Observation& obs);
   // A camera's view jumped at t (KidnapParams::view_jump_window_s).
   void noteViewJump(int64_t t);
+  // The robot was moved at t (every camera's view jumped:
+  // KidnapParams::declare_on_every_view_jump): the kidnapping is declared
+  // as if landmarks had shown it, but with no pose to go to. The estimate
+  // published is held (moved by the odometry) and every measurement draws
+  // all particles until distinct landmarks agree on a pose (recover_*; by
+  // the window's cluster, one landmark more than recover_landmarks, since
+  // none declared it); measurements that agree with the pose before it
+  // cancel it (cancel_count). After noteViewJump(t). Returns whether it
+  // was declared (not if kidnapped already).
+  bool declareMoved(int64_t t);
   // Systematic resampling, whatever the effective sample size. O(particles).
   void resample();
   // Starts every particle from the same known map (e.g. landmark poses saved
@@ -460,9 +480,9 @@ class ParticleFilter {
   // Whether a measurement's implied pose, carried to now, is within scale x
   // cluster_* of `at`.
   bool agreesWith(const Implied& m, const Pose2& at, double scale) const;
-  // At a kidnap detection with evidence of the pose `at`: the landmarks to
-  // re-test after the relocalization.
-  void chooseRetestCandidates(const Pose2& at);
+  // At a kidnap detection with evidence of the pose `at` (none: declared
+  // on a view jump): the landmarks to re-test after the relocalization.
+  void chooseRetestCandidates(const std::optional<Pose2>& at);
   // Adds the landmarks placed at or after `from` to those re-tested.
   void retestLandmarksPlacedSince(int64_t from);
   // While kidnapped: does this measurement cancel the kidnapping
@@ -558,7 +578,8 @@ class ParticleFilter {
   // A landmark placed before the latest series of view jumps was
   // consistent after it (KidnapParams::unchecked_jump_window_s).
   bool jump_checked_ = true;
-  bool robot_was_moved_ = false;  // robotWasMoved()
+  bool robot_was_moved_ = false;        // robotWasMoved()
+  bool declared_on_view_jump_ = false;  // the kidnapping was declareMoved's
   // While kidnapped with robot_was_moved_ from a view jump: the first jump
   // of its series, when the robot was moved. Landmarks placed since were
   // placed from the pose it was thought to be at (max: none known).

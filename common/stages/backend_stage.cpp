@@ -138,7 +138,11 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "for this long after a front-end's view jumped, inconsistent measurements the "
            "back-end thins (`landmark_min_interval_s`) still count toward a kidnapping, and a "
            "run begun in it needs no `detect_min_span_s`; so also while no landmark placed "
-           "before the jump has agreed since (`unchecked_jump_window_s`); 0: off");
+           "before the jump has agreed since (`unchecked_jump_window_s`); 0: off")
+      .add("declare_on_every_view_jump", &K::declare_on_every_view_jump,
+           "a view jump of every camera at once (two at least, within 0.5 s; cameras heard from "
+           "in the last 10 s) declares a kidnapping then: the robot was moved (needs "
+           "`view_jump_window_s`); false: landmarks must show it");
   return t;
 }
 
@@ -540,8 +544,12 @@ void BackendStage::onViewJump(const vslam::view_jump_t& msg) {
                                                              " has no valid time or share");
     return;
   }
-  backend_.filter().noteViewJump(msg.utime);
   ++view_jumps_;
+  if (backend_.noteViewJump(msg.camera, msg.utime)) {
+    log::warn("kidnapping detected at t ", msg.utime, ": every camera's view jumped (", msg.camera,
+              " the last): the robot was moved; sampling all particles from the "
+              "measurements");
+  }
 }
 
 template <class... Args>
@@ -628,6 +636,7 @@ void BackendStage::onMeasurement(const visual_measurement_t& msg) {
   in.proj_err_rms_px = msg.proj_err_rms;
   in.num_points = msg.num_points;
   in.slope = msg.slope;
+  in.camera = msg.camera;
   const Utime t0 = monotonicUtime();
   const backend::MeasurementResult r = backend_.addMeasurement(in);
   const double ms = 1e-3 * static_cast<double>(monotonicUtime() - t0);

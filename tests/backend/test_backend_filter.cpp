@@ -1737,6 +1737,66 @@ TEST(ParticleFilter, CarriedWhereNothingIsMappedTheFirstMappedLandmarksDeclareIt
   EXPECT_NEAR(relocalized.x, -3.0, 0.15);
 }
 
+TEST(ParticleFilter, DeclaredMovedAtAViewJumpItHoldsTheEstimateUntilThreeLandmarksAgree) {
+  // Landmarks 1-3 mapped at the start; at 1 s every camera's view jumps
+  // and the robot is declared moved (declareMoved), before any landmark
+  // shows it: kidnapped, the estimate held where it was. Landmark 4, made
+  // after the jump, neither confirms nor cancels anything. No landmark
+  // declared it, so the relocalization wants one landmark more than usual
+  // agreeing (recover_landmarks + 1 = 3): landmarks 1 and 2 measured from
+  // the true place, twice each, confirm nothing by their cluster; the third,
+  // landmark 3, does. (The other way to recover, recover_count measurements
+  // in a row that agree with the particles, is turned off here.)
+  const auto at = observationAt;
+  FilterParams p = homeParams(200);
+  p.kidnap.view_jump_window_s = 20.0;
+  p.kidnap.recover_count = 100;  // the cluster alone confirms here
+  const Pose2 landmark3{0, 1, 0};
+  auto pf = filterWithThreeLandmarks(p, landmark3.between(Pose2{}));
+  pf->noteViewJump(at(0, {}, 1.0).utime);
+  ASSERT_TRUE(pf->declareMoved(at(0, {}, 1.0).utime));
+  EXPECT_FALSE(pf->declareMoved(at(0, {}, 1.1).utime));  // once
+  EXPECT_TRUE(pf->kidnapped());
+  EXPECT_TRUE(pf->robotWasMoved());
+  EXPECT_NEAR(pf->estimate().mean.x, 0.0, 1e-9);
+  pf->predict({0.1, 0, 0});
+  EXPECT_NEAR(pf->estimate().mean.x, 0.1, 1e-9);  // held, moved by the odometry
+  pf->predict({-0.1, 0, 0});
+  EXPECT_TRUE(pf->update(at(4, {0.5, 0, 0}, 1.2)).deferred);  // first seen while kidnapped
+  bool recovered = false;
+  for (int k = 0; k < 4; ++k) {
+    recovered = pf->update(seenFromThreeMetresBack(k, 2.0 + 0.5 * k)).recovered;
+    EXPECT_FALSE(recovered) << "landmarks 1 and 2 alone, measurement " << k;
+  }
+  const Pose2 carried_to{-3, 0, 0};
+  recovered = pf->update(at(3, predictMeasurement(carried_to, landmark3), 4.0)).recovered;
+  EXPECT_TRUE(recovered);
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.15);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.15);
+}
+
+TEST(ParticleFilter, DeclaredMovedByAFalseViewJumpItIsCancelledByTheLandmarksBefore) {
+  // Every camera's view jumped but the robot was not moved (the lights
+  // changed): landmarks 1 and 2, mapped before, agree with the pose held
+  // since and cancel the kidnapping (cancel_count 2).
+  const auto at = observationAt;
+  FilterParams p = homeParams(200);
+  p.kidnap.view_jump_window_s = 20.0;
+  auto pf = filterWithThreeLandmarks(p, {0, -1, 0});
+  pf->noteViewJump(at(0, {}, 1.0).utime);
+  ASSERT_TRUE(pf->declareMoved(at(0, {}, 1.0).utime));
+  bool cancelled = false;
+  for (int k = 0; k < 4 && !cancelled; ++k)
+    cancelled =
+        pf->update(k % 2 ? at(2, {0, 1, 0}, 1.5 + 0.5 * k) : at(1, {1, 0, 0}, 1.5 + 0.5 * k))
+            .cancelled;
+  EXPECT_TRUE(cancelled);
+  EXPECT_FALSE(pf->kidnapped());
+  EXPECT_NEAR(pf->estimate().mean.x, 0.0, 0.1);
+  EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.1);
+}
+
 TEST(ParticleFilter, AfterAViewJumpLandmarksPlacedSinceCannotCancelTheKidnapping) {
   // Landmarks 1-3 are mapped at the start; at 10 s the robot is carried 3 m
   // back, its odometry still. It makes landmark 4 there, placed from where

@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "backend/backend.hpp"
 #include "backend/measurement_model.hpp"
@@ -445,4 +448,54 @@ TEST(BackendMeasurements, AKnownLookAlikesInconsistentMeasurementIsCountedAsIgno
   // A consistent one of the same landmark weighs the particles as usual.
   EXPECT_EQ(be.addMeasurement(circleMeasurement(1, 50, 80, {})).update.kind, UpdateKind::kMixture);
   EXPECT_EQ(be.counters().look_alike_measurements_ignored, 1);
+}
+
+TEST(BackendViewJumps, EveryCamerasViewJumpingAtOnceDeclaresTheRobotMoved) {
+  // Cameras measure landmarks on the circle (each at its reading), then
+  // views jump. Every camera heard from in the last 10 s, two at least,
+  // within 0.5 s: the robot was moved (carried), declared at once, the
+  // estimate held where it was. One camera's jump alone, jumps seconds
+  // apart, a robot with one camera, or the parameter off: not.
+  using Heard = std::vector<std::pair<std::string, int64_t>>;  // camera, reading
+  using Jumps = std::vector<std::pair<std::string, double>>;   // camera, seconds
+  auto declared = [](bool enabled, const Heard& heard, const Jumps& jumps) {
+    BackendParams p = params(50, 0.01);
+    p.filter.kidnap.view_jump_window_s = 20.0;
+    p.filter.kidnap.declare_on_every_view_jump = enabled;
+    OnTheCircle c(p);
+    Backend& be = c.be;
+    int64_t id = 0;
+    for (const auto& [camera, s] : heard) {
+      c.driveTo(s);
+      MeasurementInput m = circleMeasurement(++id, s - 10, s);
+      m.camera = camera;
+      be.addMeasurement(m);
+    }
+    c.driveTo(c.seq + 10);
+    const Pose2 before = be.filter().estimate().mean;
+    int declarations = 0;
+    for (const auto& [camera, s] : jumps) declarations += be.noteViewJump(camera, at(s));
+    EXPECT_EQ(be.filter().kidnapped(), declarations > 0);
+    EXPECT_EQ(be.counters().kidnaps_detected, declarations);
+    if (declarations > 0) {
+      EXPECT_TRUE(be.filter().robotWasMoved());
+      EXPECT_NEAR(be.filter().estimate().mean.x, before.x, 1e-9);  // held
+      EXPECT_NEAR(be.filter().estimate().mean.y, before.y, 1e-9);
+    }
+    return declarations;
+  };
+  const Heard two = {{"forward", 50}, {"backward", 60}};
+  EXPECT_EQ(declared(true, two, {{"forward", 1.3}, {"backward", 1.3}}), 1);
+  EXPECT_EQ(declared(true, two, {{"forward", 1.0}, {"backward", 1.3}}),
+            1);  // not triggered together
+  EXPECT_EQ(declared(true, two, {{"forward", 1.3}}), 0);
+  EXPECT_EQ(declared(true, two, {{"forward", 0.3}, {"backward", 1.3}}), 0);
+  EXPECT_EQ(declared(true, {{"forward", 50}}, {{"forward", 1.3}}), 0);
+  EXPECT_EQ(declared(false, two, {{"forward", 1.3}, {"backward", 1.3}}), 0);
+  // Three cameras: two jumping is not all of them...
+  const Heard three = {{"forward", 50}, {"backward", 55}, {"left", 60}};
+  EXPECT_EQ(declared(true, three, {{"left", 1.3}, {"backward", 1.3}}), 0);
+  // ...unless the third has not been heard from for over 10 s (stopped).
+  const Heard stopped = {{"left", 50}, {"forward", 600}, {"backward", 610}};
+  EXPECT_EQ(declared(true, stopped, {{"forward", 12.3}, {"backward", 12.3}}), 1);
 }

@@ -593,7 +593,7 @@ std::vector<double> runBackend(bool map_correction, uint64_t seed, bool in_backg
     }
     while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
       const auto& m = meas[next_measurement++];
-      be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0});
+      be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0, ""});
     }
     if (t > lap_ticks + 100 && t % 50 == 0)
       errors.push_back(positionError(be.filter().estimate().mean, world.truth()[t]));
@@ -677,9 +677,9 @@ TEST(Backend, MapCorrectionPlacesLateAnnouncedCreationsButNotOnesBeyondItsHistor
   const Pose2 node = *be.poseGraph()->landmarkPose(2);
   EXPECT_NEAR(node.x, 1.0 - 0.5 * 0.7 / 7.0, 1e-9) << "interpolated odometry at the creation time";
   // A measurement as old as that creation is too old for the filter.
-  EXPECT_EQ(be.addMeasurement({8500000, 2, Pose2{0.1, 0, 0}, 0.5, 50, 0.0}).use,
+  EXPECT_EQ(be.addMeasurement({8500000, 2, Pose2{0.1, 0, 0}, 0.5, 50, 0.0, ""}).use,
             MeasurementUse::kTooOld);
-  EXPECT_EQ(be.addMeasurement({23000000, 2, Pose2{1.0 - node.x, 0, 0}, 0.5, 50, 0.0}).use,
+  EXPECT_EQ(be.addMeasurement({23000000, 2, Pose2{1.0 - node.x, 0, 0}, 0.5, 50, 0.0, ""}).use,
             MeasurementUse::kUsed);
   BackendParams off;
   off.filter.motion = {0.03, 0.03};
@@ -708,12 +708,13 @@ TEST(Backend, ARetiredLandmarkNoLongerUpdatesTheFilter) {
     if (k == 10) be.addLandmarkCreation(1, t);
     if (k == 20) be.addLandmarkCreation(2, t);
     if (k > 10 && k <= 60 && k % 5 == 0) {
-      EXPECT_NE(be.addMeasurement({t, 1, odom(10).between(odom(k)), 0.5, 50, 0.0}).use,
+      EXPECT_NE(be.addMeasurement({t, 1, odom(10).between(odom(k)), 0.5, 50, 0.0, ""}).use,
                 MeasurementUse::kRetired);
     }
     if (k > 20 && k <= 90 && k % 5 == 2) {
       uses2.push_back(
-          be.addMeasurement({t, 2, odom(20).between(odom(k)).compose(error), 0.5, 50, 0.0}).use);
+          be.addMeasurement({t, 2, odom(20).between(odom(k)).compose(error), 0.5, 50, 0.0, ""})
+              .use);
     }
   }
   ASSERT_NE(be.poseGraph(), nullptr);
@@ -778,7 +779,7 @@ FaultRun runWithOdometryFault(double slip_m, double bias_rad_per_m, double jump_
     while (next_measurement < meas.size() && meas[next_measurement].tick == t) {
       const auto& m = meas[next_measurement++];
       const MeasurementResult r =
-          be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0});
+          be.addMeasurement({world.utime(t), m.landmark_id, m.y, 0.5, 50, 0.0, ""});
       if (r.join) out.last_join = r.join;
     }
     if (t > settled && t % 50 == 0)

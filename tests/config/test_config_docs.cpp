@@ -134,6 +134,9 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"backend.kidnap.moved_evidence_s",
        "carries of the tuning homes 21-52 (docs/backend.md, \"View jumps\"); off in the library "
        "as view jumps are"},
+      {"backend.kidnap.declare_on_every_view_jump",
+       "carries of the generated homes 1260-1289 (docs/backend.md, \"View jumps\"); off in the "
+       "library as view jumps are"},
       {"camera.width", "the robot file's cameras are calibrated at 320x240"},
       {"camera.height", "as camera.width"},
       {"camera.max_fps", "the robot file's frame_rate_hz (10)"},
