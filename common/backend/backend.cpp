@@ -14,9 +14,11 @@ constexpr double kConsistentOutlierFraction = 0.5;
 // noteViewJump: a camera heard from this recently is one of the robot's
 // (a camera that has stopped is not waited for)...
 constexpr double kActiveCameraS = 10.0;
-// ...and jumps of every camera this close in time are one move (cameras
-// need not be triggered together: a few frames at 10-30 Hz).
-constexpr double kSimultaneousJumpS = 0.5;
+// ...and jumps of every camera this close in time are one move: the same
+// instant, give or take a frame of cameras not triggered together (at 10
+// Hz). Not more: false jumps of two cameras half a second apart are not
+// rare (the built-in kidnap scenario, 8 s after its carry).
+constexpr double kSimultaneousJumpS = 0.15;
 constexpr size_t kMaxCameras = 16;
 }  // namespace
 

@@ -821,7 +821,11 @@ void ParticleFilter::noteViewJump(int64_t t) {
 }
 
 bool ParticleFilter::declareMoved(int64_t t) {
-  if (kidnapped_ || params_.kidnap.view_jump_window_s <= 0) return false;
+  // Not soon after a moved robot's relocalization: the views jump again as
+  // it is put down and turned (the built-in kidnap scenario: three jumps
+  // 8 s after the carry, none a move), and the landmarks judge that.
+  if (kidnapped_ || params_.kidnap.view_jump_window_s <= 0 || recentlyRelocalizedAfterAMove(t))
+    return false;
   held_ = estimate().mean;  // published until the relocalization is confirmed
   kidnapped_ = true;
   declared_on_view_jump_ = true;

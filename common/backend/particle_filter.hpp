@@ -336,7 +336,8 @@ class ParticleFilter {
   // the window's cluster, one landmark more than recover_landmarks, since
   // none declared it); measurements that agree with the pose before it
   // cancel it (cancel_count). After noteViewJump(t). Returns whether it
-  // was declared (not if kidnapped already).
+  // was declared (not if kidnapped already, nor within view_jump_window_s
+  // of a moved robot's relocalization).
   bool declareMoved(int64_t t);
   // Systematic resampling, whatever the effective sample size. O(particles).
   void resample();

@@ -140,7 +140,7 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "run begun in it needs no `detect_min_span_s`; so also while no landmark placed "
            "before the jump has agreed since (`unchecked_jump_window_s`); 0: off")
       .add("declare_on_every_view_jump", &K::declare_on_every_view_jump,
-           "a view jump of every camera at once (two at least, within 0.5 s; cameras heard from "
+           "a view jump of every camera at once (two at least, within 0.15 s; cameras heard from "
            "in the last 10 s) declares a kidnapping then: the robot was moved (needs "
            "`view_jump_window_s`); false: landmarks must show it");
   return t;

@@ -1774,6 +1774,13 @@ TEST(ParticleFilter, DeclaredMovedAtAViewJumpItHoldsTheEstimateUntilThreeLandmar
   EXPECT_FALSE(pf->kidnapped());
   EXPECT_NEAR(pf->estimate().mean.x, -3.0, 0.15);
   EXPECT_NEAR(pf->estimate().mean.y, 0.0, 0.15);
+  // Put down and turned, its views jump again soon after: the landmarks
+  // judge that (view_jump_window_s after the relocalization), not the jump.
+  pf->noteViewJump(at(0, {}, 4.5).utime);
+  EXPECT_FALSE(pf->declareMoved(at(0, {}, 4.5).utime));
+  EXPECT_FALSE(pf->kidnapped());
+  pf->noteViewJump(at(0, {}, 25.0).utime);
+  EXPECT_TRUE(pf->declareMoved(at(0, {}, 25.0).utime));  // later: a move again
 }
 
 TEST(ParticleFilter, DeclaredMovedByAFalseViewJumpItIsCancelledByTheLandmarksBefore) {
