@@ -286,16 +286,26 @@ bool Backend::noteViewJump(const std::string& camera, int64_t utime) {
   noteCamera(camera, utime);
   if (camera.empty()) return false;
   CameraActivity& jumped = cameras_.at(camera);
-  jumped.jump_utime = std::max(jumped.jump_utime, utime);
-  if (!params_.filter.kidnap.declare_on_every_view_jump || filter_.kidnapped()) return false;
+  if (utime > jumped.jump_utime) {
+    jumped.previous_jump_utime = jumped.jump_utime;
+    jumped.jump_utime = utime;
+  }
+  const KidnapParams& kp = params_.filter.kidnap;
+  if (!kp.declare_on_every_view_jump || filter_.kidnapped()) return false;
+  constexpr int64_t kNever = std::numeric_limits<int64_t>::min();
   const auto active_us = static_cast<int64_t>(kActiveCameraS * 1e6);
   const auto together_us = static_cast<int64_t>(kSimultaneousJumpS * 1e6);
+  const auto steady_us = static_cast<int64_t>(kp.view_jump_window_s * 1e6);
   int active = 0;
   for (const auto& [name, c] : cameras_) {
     if (utime - c.heard_utime > active_us) continue;  // stopped, or not one of this robot's
     ++active;
-    if (c.jump_utime == std::numeric_limits<int64_t>::min() ||
-        std::abs(utime - c.jump_utime) > together_us)
+    if (c.jump_utime == kNever || std::abs(utime - c.jump_utime) > together_us) return false;
+    // A camera whose view keeps jumping while the robot stays put (people
+    // walking past it, motion blur) cannot tell a move: in the built-in
+    // people scenario both cameras jump every few seconds, and two such
+    // jumps a frame apart declared a kidnapping, cancelled 1.4 s later.
+    if (c.previous_jump_utime != kNever && c.jump_utime - c.previous_jump_utime < steady_us)
       return false;
   }
   if (active < 2 || !filter_.declareMoved(utime)) return false;

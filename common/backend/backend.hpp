@@ -216,9 +216,11 @@ class Backend {
   // A camera's view jumped at `utime` (ParticleFilter::noteViewJump). When
   // every camera heard from (by a measurement or a jump) in the last
   // kActiveCameraS has jumped within kSimultaneousJumpS of it, two cameras
-  // at least, and KidnapParams::declare_on_every_view_jump, the robot was
-  // moved: the kidnapping is declared (ParticleFilter::declareMoved) and
-  // this returns true.
+  // at least, none of them after another jump less than
+  // KidnapParams::view_jump_window_s before, and
+  // KidnapParams::declare_on_every_view_jump, the robot was moved: the
+  // kidnapping is declared (ParticleFilter::declareMoved) and this returns
+  // true.
   bool noteViewJump(const std::string& camera, int64_t utime);
 
   const ParticleFilter& filter() const { return filter_; }
@@ -316,6 +318,7 @@ class Backend {
   struct CameraActivity {
     int64_t heard_utime = 0;
     int64_t jump_utime = std::numeric_limits<int64_t>::min();
+    int64_t previous_jump_utime = std::numeric_limits<int64_t>::min();  // the jump before
   };
   std::map<std::string, CameraActivity> cameras_;
   void noteCamera(const std::string& camera, int64_t utime);

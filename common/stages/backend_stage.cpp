@@ -141,7 +141,8 @@ ParamTable<backend::KidnapParams> kidnapTable() {
            "before the jump has agreed since (`unchecked_jump_window_s`); 0: off")
       .add("declare_on_every_view_jump", &K::declare_on_every_view_jump,
            "a view jump of every camera at once (two at least, within 0.15 s; cameras heard from "
-           "in the last 10 s) declares a kidnapping then: the robot was moved (needs "
+           "in the last 10 s, none of which jumped in the `view_jump_window_s` before) declares "
+           "a kidnapping then: the robot was moved (needs "
            "`view_jump_window_s`); false: landmarks must show it");
   return t;
 }

@@ -490,6 +490,10 @@ TEST(BackendViewJumps, EveryCamerasViewJumpingAtOnceDeclaresTheRobotMoved) {
   EXPECT_EQ(declared(true, two, {{"forward", 1.2}, {"backward", 1.3}}), 1);
   EXPECT_EQ(declared(true, two, {{"forward", 1.0}, {"backward", 1.3}}), 0);
   EXPECT_EQ(declared(true, two, {{"forward", 1.3}}), 0);
+  // A camera whose view jumped less than view_jump_window_s (20 s) before
+  // keeps jumping in place (people walking past): it cannot tell a move.
+  EXPECT_EQ(declared(true, two, {{"forward", 0.3}, {"forward", 1.3}, {"backward", 1.3}}), 0);
+  EXPECT_EQ(declared(true, two, {{"forward", 0.3}, {"forward", 21.0}, {"backward", 21.0}}), 1);
   EXPECT_EQ(declared(true, two, {{"forward", 0.3}, {"backward", 1.3}}), 0);
   EXPECT_EQ(declared(true, {{"forward", 50}}, {{"forward", 1.3}}), 0);
   EXPECT_EQ(declared(false, two, {{"forward", 1.3}, {"backward", 1.3}}), 0);
