@@ -597,32 +597,16 @@ bool ParticleFilter::updateMode(uint32_t slot, const Observation& obs, double ag
         rep->drift_corrected = true;
         smoothed_agreement_ = 1;
       } else {
-        held_ = from;  // published until the relocalization is confirmed
-        kidnapped_ = true;
-        declared_on_view_jump_ = false;
-        kidnap_evidence_slots_.clear();
+        const bool moved = unresolvedViewJump(obs.utime);
+        beginKidnapping(obs.utime, from, moved,
+                        moved ? jumps_since_utime_ : std::numeric_limits<int64_t>::max(), to);
         for (const Implied& l : low_run_)
           if (!isKidnapEvidence(l.slot)) kidnap_evidence_slots_.push_back(l.slot);
-        if (kp.cancel_count > 0) {
-          before_kidnap_ = particles_;  // shares every map: O(particles)
-          before_kidnap_since_update_ = since_update_;
-          before_kidnap_agreeing_ = 0;
-        }
         rep->kidnap_detected = true;
-        robot_was_moved_ = unresolvedViewJump(obs.utime);
-        moved_since_utime_ =
-            robot_was_moved_ ? jumps_since_utime_ : std::numeric_limits<int64_t>::max();
-        view_jump_utime_ = jumps_since_utime_ =
-            std::numeric_limits<int64_t>::min();  // they did their work
-        chooseRetestCandidates(to);
         // The measurements that declared it stay in the relocalization's
         // window: they say where the robot is.
-        reloc_run_.clear();
-        kidnap_declared_utime_ = obs.utime;
         for (const Implied& m : low_run_)
           if (agreesWith(m, to, 1.0)) reloc_run_.push_back(m);
-        recover_count_ = 0;
-        recover_landmarks_.clear();
         all_dual = true;
       }
       low_run_.clear();
@@ -826,27 +810,35 @@ bool ParticleFilter::declareMoved(int64_t t) {
   // 8 s after the carry, none a move), and the landmarks judge that.
   if (kidnapped_ || params_.kidnap.view_jump_window_s <= 0 || recentlyRelocalizedAfterAMove(t))
     return false;
-  held_ = estimate().mean;  // published until the relocalization is confirmed
+  const int64_t moved_since = jumps_since_utime_ == std::numeric_limits<int64_t>::min()
+                                  ? t
+                                  : std::min(jumps_since_utime_, t);
+  // No landmark declared it: no evidence slots, no pose to go to (every
+  // landmark placed since the jump is re-tested).
+  beginKidnapping(t, estimate().mean, true, moved_since, std::nullopt);
+  low_run_.clear();
+  return true;
+}
+
+void ParticleFilter::beginKidnapping(int64_t t, const Pose2& held, bool moved, int64_t moved_since,
+                                     const std::optional<Pose2>& at) {
+  held_ = held;  // published until the relocalization is confirmed
   kidnapped_ = true;
-  declared_on_view_jump_ = true;
+  declared_on_view_jump_ = !at.has_value();
   kidnap_declared_utime_ = t;
-  kidnap_evidence_slots_.clear();  // no landmark declared it
+  kidnap_evidence_slots_.clear();
   if (params_.kidnap.cancel_count > 0) {
     before_kidnap_ = particles_;  // shares every map: O(particles)
     before_kidnap_since_update_ = since_update_;
     before_kidnap_agreeing_ = 0;
   }
-  robot_was_moved_ = true;
-  moved_since_utime_ = jumps_since_utime_ == std::numeric_limits<int64_t>::min()
-                           ? t
-                           : std::min(jumps_since_utime_, t);
+  robot_was_moved_ = moved;
+  moved_since_utime_ = moved_since;
   view_jump_utime_ = jumps_since_utime_ = std::numeric_limits<int64_t>::min();  // did their work
-  chooseRetestCandidates(std::nullopt);  // every landmark placed since the jump
-  low_run_.clear();
+  chooseRetestCandidates(at);
   reloc_run_.clear();
   recover_count_ = 0;
   recover_landmarks_.clear();
-  return true;
 }
 
 bool ParticleFilter::withinViewJumpWindow(int64_t since, int64_t t) const {

@@ -484,6 +484,12 @@ class ParticleFilter {
   // At a kidnap detection with evidence of the pose `at` (none: declared
   // on a view jump): the landmarks to re-test after the relocalization.
   void chooseRetestCandidates(const std::optional<Pose2>& at);
+  // Declares a kidnapping at t (by evidence of `at`, or by declareMoved):
+  // the estimate `held` is published, the particles as they are kept to
+  // cancel it, the view jumps' series done, the re-test candidates chosen
+  // and the relocalization's window emptied.
+  void beginKidnapping(int64_t t, const Pose2& held, bool moved, int64_t moved_since,
+                       const std::optional<Pose2>& at);
   // Adds the landmarks placed at or after `from` to those re-tested.
   void retestLandmarksPlacedSince(int64_t from);
   // While kidnapped: does this measurement cancel the kidnapping
