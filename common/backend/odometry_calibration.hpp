@@ -8,15 +8,18 @@
 // largely of its 3-D structure's errors, which both measurements share). The
 // odometry gives O = o1^-1 (+) o2 over the path length d and rotation a
 // driven in between. Under the motion model (odometry/motion_model.hpp)
-//   e_theta = wrap(V_theta - O_theta) = b_h d + n,  var n = sigma_R^2 (d + a) + c_theta
-//   e_along = (V_xy - O_xy) . O_xy/|O_xy| = s |O| + n,  var n = sigma_T^2 d + c_xy
-// where b_h and s are (minus) the heading bias per metre and the scale bias, c the
-// measurements' own variance. The biases are ratio estimates; the sigmas a
-// least-squares line of the squared, de-biased residuals over d (+ a), whose
-// intercept takes up the measurement noise (the sigmas include the biases'
-// share of the error, since the motion model has no bias term). Pairs are non-overlapping (each
-// measurement is in one pair), span min_travel..max_travel, and a window of
-// the newest max_pairs is kept: the cost does not grow with the run.
+//   e_theta = wrap(V_theta - O_theta) = -b_h d + n,  var n = sigma_R^2 (d + a) + c_theta
+//   e_along = (V_xy - O_xy) . O_xy/|O_xy| = n,       var n = sigma_T^2 d + c_xy
+// where b_h is the heading bias per metre and c the measurements' own
+// variance. The heading bias is a ratio estimate; each sigma the slope of a
+// line of the squared residuals over d (+ a), robust to outliers
+// (odometry_calibration.cpp), whose intercept takes up c. The
+// odometry's scale bias is not observable here: a monocular landmark's
+// depth, and so every measurement's length, comes from these same wheels'
+// baselines (frontend/landmark_creation.hpp), so V_xy and O_xy carry the same
+// scale. Pairs are non-overlapping (each measurement is in one pair), span
+// min_travel..max_travel, and a window of the newest max_pairs is kept: the
+// cost does not grow with the run.
 
 #include <cstdint>
 #include <deque>
@@ -54,8 +57,8 @@ struct OdometryNoiseEstimate {
   int pairs = 0;
   double sigma_translation = 0;  // m / sqrt(m)
   double sigma_rotation = 0;     // rad / sqrt(m + rad)
-  double scale_bias = 0;         // the odometry reports (1 + scale_bias) x the distance driven
-  double heading_bias = 0;       // and heading_bias rad per metre more rotation than turned
+  double heading_bias =
+      0;  // the odometry reports this many rad per metre more rotation than turned
 };
 
 class OdometryNoiseEstimator {
@@ -80,9 +83,8 @@ class OdometryNoiseEstimator {
     OdometryAt odometry;
   };
   struct Pair {
-    double distance;         // d
-    double travel;           // d + a
-    double odometry_length;  // |O_xy|
+    double distance;  // d
+    double travel;    // d + a
     double e_along;
     double e_theta;
   };

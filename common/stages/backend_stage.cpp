@@ -722,8 +722,8 @@ void BackendStage::logOdometryCalibration(const backend::OdometryNoiseEstimate& 
   if (!n.valid || n.pairs < calibration_logged_pairs_ + kCalibrationLogPairs) return;
   calibration_logged_pairs_ = n.pairs;
   log::info("odometry calibration (", n.pairs, " pairs): sigma_translation ", n.sigma_translation,
-            " m/sqrt(m), sigma_rotation ", n.sigma_rotation, " rad/sqrt(m+rad), scale_bias ",
-            n.scale_bias, ", heading_bias ", n.heading_bias, " rad/m; motion model ",
+            " m/sqrt(m), sigma_rotation ", n.sigma_rotation, " rad/sqrt(m+rad), heading_bias ",
+            n.heading_bias, " rad/m; motion model ",
             backend_.filter().params().motion.sigma_translation, ", ",
             backend_.filter().params().motion.sigma_rotation);
 }
@@ -846,7 +846,6 @@ void BackendStage::collectHealth(bus::HealthReport& report) {
     if (n.valid) {
       report.add("odometry_sigma_translation_est", n.sigma_translation, "m/sqrt(m)");
       report.add("odometry_sigma_rotation_est", n.sigma_rotation, "rad/sqrt(m+rad)");
-      report.add("odometry_scale_bias_est", n.scale_bias);
       report.add("odometry_heading_bias_est", n.heading_bias, "rad/m");
     }
     report.add("motion_sigma_translation", backend_.filter().params().motion.sigma_translation,

@@ -21,7 +21,13 @@ struct Wheels {
   double heading_bias = 0;  // rad per metre
 };
 
-OdometryNoiseEstimate calibrate(const Wheels& wheels, uint64_t seed, int* pairs_made = nullptr) {
+// landmark_scale: the scale of the landmarks' 3-D structure, and so of
+// their measurements' lengths (a monocular landmark's depth comes from the
+// wheels' baselines: 1 + their scale bias). look_alike_fraction: the share of
+// measurements that are a look-alike's, off by 0.2 m and 0.1 rad (within the
+// estimator's residual bounds).
+OdometryNoiseEstimate calibrate(const Wheels& wheels, uint64_t seed, int* pairs_made = nullptr,
+                                double landmark_scale = 1.0, double look_alike_fraction = 0.0) {
   OdometryCalibrationParams params;
   params.enabled = true;
   params.max_pairs = 5000;
@@ -41,9 +47,15 @@ OdometryNoiseEstimate calibrate(const Wheels& wheels, uint64_t seed, int* pairs_
   int made = 0;
   auto measure = [&](const Pose2& landmark) {
     Pose2 y = landmark.between(truth);
+    y.x *= landmark_scale;
+    y.y *= landmark_scale;
     y.x += 0.01 * rng.normal();
     y.y += 0.01 * rng.normal();
     y.theta += 0.005 * rng.normal();
+    if (rng.uniform() < look_alike_fraction) {
+      y.x += 0.2;
+      y.theta += 0.1;
+    }
     return y;
   };
   for (int k = 0; k < 100000; ++k) {  // 2 km of wandering
@@ -92,22 +104,39 @@ TEST(OdometryCalibration, RecoversTheWheelsNoise) {
         << noise.sigma_rotation;
     EXPECT_NEAR(e.sigma_translation, noise.sigma_translation, 0.3 * noise.sigma_translation + 0.003)
         << noise.sigma_translation;
-    // Ratio estimates: their standard error grows with the noise.
-    EXPECT_NEAR(e.scale_bias, 0, 0.005);
+    // A ratio estimate: its standard error grows with the noise.
     EXPECT_NEAR(e.heading_bias, 0, 0.001 + 0.1 * noise.sigma_rotation);
-    std::printf("sigma_T %.3f -> %.4f, sigma_R %.3f -> %.4f, biases %.4f %.4f, %d pairs\n",
+    std::printf("sigma_T %.3f -> %.4f, sigma_R %.3f -> %.4f, heading bias %.4f, %d pairs\n",
                 noise.sigma_translation, e.sigma_translation, noise.sigma_rotation,
-                e.sigma_rotation, e.scale_bias, e.heading_bias, e.pairs);
+                e.sigma_rotation, e.heading_bias, e.pairs);
   }
 }
 
-TEST(OdometryCalibration, RecoversTheWheelsBiases) {
-  const OdometryNoiseEstimate e = calibrate({{0.02, 0.02}, 0.02, -0.01}, 5);
+TEST(OdometryCalibration, RecoversTheHeadingBiasAndNotTheScaleBias) {
+  // Wheels that report 2% too far and turn 0.01 rad/m too little, and
+  // landmarks built from their baselines, 2% too large.
+  const Wheels wheels{{0.02, 0.02}, 0.02, -0.01};
+  const OdometryNoiseEstimate e = calibrate(wheels, 5, nullptr, 1.02);
   ASSERT_TRUE(e.valid);
-  EXPECT_NEAR(e.scale_bias, 0.02, 0.005);
   EXPECT_NEAR(e.heading_bias, -0.01, 0.002);
-  // The sigmas cover the biases' share of the error (the motion model has no bias term).
+  // The sigmas cover the heading bias's share of the error (the motion model has no bias term)...
   EXPECT_GT(e.sigma_rotation, 0.02);
+  // ...but the scale bias is in the landmarks too: not an error vision sees.
+  EXPECT_NEAR(e.sigma_translation, 0.02, 0.3 * 0.02 + 0.003);
+  // Landmarks in true scale would show it as along-track error: the test
+  // above fails if the measurements' scale is not what it says.
+  const OdometryNoiseEstimate metric = calibrate(wheels, 5);
+  EXPECT_GT(metric.sigma_translation, e.sigma_translation + 0.005);
+}
+
+TEST(OdometryCalibration, LookAlikesDoNotPassForOdometryNoise) {
+  // One measurement in 20 a look-alike's: a sum of squares over the pairs
+  // would give sigma_T 0.036 and sigma_R 0.014 for these 0.02 / 0.01 wheels.
+  const MotionNoise noise{0.02, 0.01};
+  const OdometryNoiseEstimate e = calibrate({noise, 0, 0}, 7, nullptr, 1.0, 0.05);
+  ASSERT_TRUE(e.valid);
+  EXPECT_NEAR(e.sigma_translation, noise.sigma_translation, 0.3 * noise.sigma_translation + 0.003);
+  EXPECT_NEAR(e.sigma_rotation, noise.sigma_rotation, 0.3 * noise.sigma_rotation);
 }
 
 TEST(OdometryCalibration, NeedsEnoughPairsAndKeepsPairsWithinTheOdometryFrame) {
