@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "util/statistics.hpp"
+
 namespace vslam::backend {
 
 namespace {
@@ -41,13 +43,6 @@ constexpr int kTrimRounds = 3;
 // E[r^2 | |r| <= 3 sigma] / sigma^2 for a Gaussian r: 1 - 2 t phi(t) / (2 Phi(t) - 1), t = 3.
 constexpr double kTrimmedVarianceFactor = 0.97334;
 
-// Upper median; x is reordered.
-double median(std::vector<double>* x) {
-  const auto mid = x->begin() + static_cast<std::ptrdiff_t>(x->size() / 2);
-  std::nth_element(x->begin(), mid, x->end());
-  return *mid;
-}
-
 // The slope k of var(r) = c + k x, robust to the few look-alike or badly
 // built landmarks' pairs that a sum of squares would take for odometry
 // noise. A first line through kSpreadBins groups of equal count by x, each
@@ -69,7 +64,7 @@ double robustVarianceSlope(std::vector<std::pair<double, double>> xr) {
       sum_x += xr[i].first;
       abs_r.push_back(std::abs(xr[i].second));
     }
-    const double sigma = 1.4826 * median(&abs_r);
+    const double sigma = 1.4826 * upperMedian(&abs_r);
     x.push_back(sum_x / static_cast<double>(to - from));
     y.push_back(sigma * sigma);
   }
