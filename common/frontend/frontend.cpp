@@ -38,7 +38,11 @@ constexpr double kSameOdometryRad = 0.01;
 // changes with the angle to the light (home 1197: two frames of 0 and 1
 // features, 6-7 grey levels of shading, correlated 0.07 without a carry,
 // and two false kidnappings followed). The dim room's carry of home 1190
-// had 17 and 21.
+// had 17 and 21. Thumbnails alike at least that but less than
+// view_jump_features_below_similarity are unsure: a carry between two views
+// of one pattern correlated 0.40-0.53 (generated homes 1273, 1290, 1337,
+// whose features were not found again), so there the features are tested
+// as well.
 // Where the thumbnails cannot tell, the features
 // (FrontendParams::view_jump_max_matched_share): the previous frame's
 // strongest features, and its largest-scale ones, are
@@ -263,7 +267,13 @@ void Frontend::testContinuity(Utime t, const View& view, bool have_odometry, Fra
         result->view_jumped =
             result->thumbnail_similarity < params_.view_jump_min_thumbnail_similarity;
       }
-      if (params_.view_jump_max_matched_share > 0 && std::isnan(result->thumbnail_similarity) &&
+      // Features decide where the thumbnails cannot, and have a say where
+      // they are not sure.
+      const bool thumbnails_unsure =
+          std::isnan(result->thumbnail_similarity) ||
+          (!result->view_jumped &&
+           result->thumbnail_similarity < params_.view_jump_features_below_similarity);
+      if (params_.view_jump_max_matched_share > 0 && thumbnails_unsure &&
           previous_->strongest.rows >= kContinuityMinFeatures &&
           static_cast<int>(f.size()) >= kContinuityMinFeatures) {
         auto share_found = [&](const cv::Mat& previous) {

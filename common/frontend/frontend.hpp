@@ -76,6 +76,11 @@ struct FrontendParams {
   // again across a carry do not hide it, nor does a fast turn's blur make
   // one. 0: not tested.
   double view_jump_min_thumbnail_similarity = 0.0;
+  // Thumbnails alike at least view_jump_min_thumbnail_similarity but less
+  // than this are not sure: the features are tested as well, and the view
+  // jumped if they say so (a carry between two views of the same pattern,
+  // whose thumbnails still correlate a little). 0: the thumbnails alone.
+  double view_jump_features_below_similarity = 0.0;
   SiftParams sift;
   CreationParams creation;
   RefinementParams refinement;

@@ -113,6 +113,14 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             "features (a dark room) and not fooled by a repeated pattern's, else "
             "view_jump_max_matched_share does; 0: not tested")
         .add(
+            "view_jump_features_below_similarity",
+            [](auto& p) -> auto& { return p.frontend.view_jump_features_below_similarity; },
+            InRange{0, 1}, "",
+            "thumbnails alike at least view_jump_min_thumbnail_similarity but less than this are "
+            "not sure: the features are tested as well (view_jump_max_matched_share), and the "
+            "view jumped if they say so (a carry between two views of one repeated pattern); 0: "
+            "the thumbnails alone")
+        .add(
             "max_measurements_per_frame",
             [](auto& p) -> auto& { return p.frontend.max_measurements_per_frame; }, InRange{1, 100},
             "", "recognized landmarks measured per frame, most matches first")

@@ -121,6 +121,9 @@ TEST(ConfigDocs, TheShippedConfigDiffersFromTheDefaultsOnlyWhereItSaysWhy) {
       {"frontend.view_jump_min_thumbnail_similarity",
        "carries from plain walls, dark rooms and tiles (docs/frontend.md, \"View jumps\"); the "
        "library's frames are not tested"},
+      {"frontend.view_jump_features_below_similarity",
+       "carries between views of one pattern (docs/frontend.md, \"View jumps\"); the library's "
+       "frames are not tested"},
       {"frontend.refine_distance_m",
        "tuning homes 21-52 (docs/benchmark-homes.md); the library keeps the paper's three views"},
       {"frontend.coverage_gate_sigmas",
