@@ -67,14 +67,14 @@ struct FrontendParams {
   // again fewer than this share of the previous frame's strongest features,
   // and fewer than this share of its largest-scale ones, although odometry
   // says the robot barely moved between them; tested only where the
-  // thumbnails cannot tell (below). 0: not tested.
+  // thumbnails cannot tell or are unsure (below). 0: not tested.
   double view_jump_max_matched_share = 0.0;
   // The view jumped where the two frames' thumbnails are less alike than
   // this (thumbnailSimilarity), odometry as above. Where the thumbnails can
-  // tell (contrast in both) they decide, and the features are not tested:
-  // they need no features (a dark room), a repeated pattern's features found
-  // again across a carry do not hide it, nor does a fast turn's blur make
-  // one. 0: not tested.
+  // tell (contrast in both) and are sure (below), they decide, and the
+  // features are not tested: they need no features (a dark room), a repeated
+  // pattern's features found again across a carry do not hide it, nor does a
+  // fast turn's blur make one. 0: not tested.
   double view_jump_min_thumbnail_similarity = 0.0;
   // Thumbnails alike at least view_jump_min_thumbnail_similarity but less
   // than this are not sure: the features are tested as well, and the view

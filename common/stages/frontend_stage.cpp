@@ -109,7 +109,8 @@ const config::ParamTable<FrontendStageParams>& FrontendStageParams::table() {
             InRange{0, 1}, "",
             "the view jumped (carried, kidnapped) when the frame reduced ten times correlates "
             "less than this with the previous one so reduced (over the shifts the odometry's "
-            "turn allows), odometry as above; where both have contrast this decides, needing no "
+            "turn allows), odometry as above; where both have contrast this decides (with the "
+            "features where it is unsure: view_jump_features_below_similarity), needing no "
             "features (a dark room) and not fooled by a repeated pattern's, else "
             "view_jump_max_matched_share does; 0: not tested")
         .add(
