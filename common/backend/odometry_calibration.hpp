@@ -57,8 +57,7 @@ struct OdometryNoiseEstimate {
   int pairs = 0;
   double sigma_translation = 0;  // m / sqrt(m)
   double sigma_rotation = 0;     // rad / sqrt(m + rad)
-  double heading_bias =
-      0;  // the odometry reports this many rad per metre more rotation than turned
+  double heading_bias = 0;       // rad/m: the odometry's turn per metre beyond the robot's
 };
 
 class OdometryNoiseEstimator {

@@ -39,10 +39,10 @@ constexpr double kSameOdometryRad = 0.01;
 // features, 6-7 grey levels of shading, correlated 0.07 without a carry,
 // and two false kidnappings followed). The dim room's carry of home 1190
 // had 17 and 21. Thumbnails alike at least that but less than
-// view_jump_features_below_similarity are unsure: a carry between two views
-// of one pattern correlated 0.40-0.53 (generated homes 1273, 1290, 1337,
-// whose features were not found again), so there the features are tested
-// as well.
+// view_jump_features_below_similarity are unsure: carries between two
+// views of one pattern correlated 0.40-0.71 (in one camera: generated homes
+// 1273, 1290, 1310, 1315, 1325, 1337, whose features were not found again),
+// so there the features are tested as well.
 // Where the thumbnails cannot tell, the features
 // (FrontendParams::view_jump_max_matched_share): the previous frame's
 // strongest features, and its largest-scale ones, are
